@@ -1,0 +1,197 @@
+//! Command-line definitions (clap derive). Only this crate knows clap.
+
+use std::path::PathBuf;
+
+use clap::{Args, Parser, Subcommand, ValueEnum};
+
+/// Render clean photos into realistic underwater images (UWNR) and build paired datasets.
+#[derive(Debug, Parser)]
+#[command(name = "uwnr", version, about, propagate_version = true)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Render clean images into underwater images styled after real underwater references.
+    Render(RenderArgs),
+    /// Compute the light-field map of a reference image (what the network sees of its style).
+    Lightfield(LightfieldArgs),
+    /// Compute the depth map a render would use for a clean image.
+    Depth(DepthArgs),
+    /// Describe the model: parameters, GMac at a size, where the weights came from.
+    Info(InfoArgs),
+}
+
+/// How clean images are paired with references when there are several.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Pairing {
+    /// Clean image i takes reference i modulo the number of references (one reference: all use it).
+    Cycle,
+    /// Every clean image with every reference.
+    All,
+    /// Each clean image takes a reference drawn at random (seeded by --seed).
+    Random,
+}
+
+/// Compute device for the neural network.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum DeviceArg {
+    /// Pure-Rust CPU backend (burn flex), always available.
+    Flex,
+    /// libtorch backend (needs a build with `--features tch`).
+    Tch,
+}
+
+/// Where depth maps come from.
+#[derive(Debug, Clone, Args)]
+pub struct DepthOpts {
+    /// Depth map for the clean image, or a directory of maps matched by file stem
+    /// (grey 8-bit read as /255, 16-bit as /65535; bright = far unless --depth-invert).
+    #[arg(long, value_name = "FILE|DIR", conflicts_with = "depth_model")]
+    pub depth: Option<PathBuf>,
+    /// ONNX monocular depth model (MiDaS / DPT / Depth-Anything style, relative inverse depth out).
+    #[arg(long, value_name = "FILE.onnx")]
+    pub depth_model: Option<PathBuf>,
+    /// Flip the depth convention (for maps where near is bright, or models that output depth).
+    #[arg(long)]
+    pub depth_invert: bool,
+    /// Min-max normalise depth maps to [0,1] (for metric depth such as 16-bit millimetres).
+    #[arg(long)]
+    pub depth_normalize: bool,
+    /// Input size WxH for ONNX depth models with a dynamic input shape.
+    #[arg(long, value_name = "WxH", value_parser = parse_size)]
+    pub depth_input_size: Option<(usize, usize)>,
+}
+
+/// Model and device options shared by the commands that run the network.
+#[derive(Debug, Clone, Args)]
+pub struct ModelOpts {
+    /// UWNR weights: safetensors (authors' key names) or the authors' PyTorch checkpoint.
+    #[arg(long, value_name = "FILE")]
+    pub weights: Option<PathBuf>,
+    /// Compute device.
+    #[arg(long, value_enum, default_value_t = DeviceArg::Flex)]
+    pub device: DeviceArg,
+    /// Images with more pixels than this are rendered in overlapping tiles (memory stays bounded).
+    #[arg(long, value_name = "PIXELS", default_value_t = 1_048_576)]
+    pub max_whole_pixels: usize,
+    /// Tile edge in pixels for tiled rendering (a multiple of 16).
+    #[arg(long, value_name = "PIXELS", default_value_t = 512)]
+    pub tile: usize,
+    /// Overlap between tiles in pixels (a multiple of 16).
+    #[arg(long, value_name = "PIXELS", default_value_t = 64)]
+    pub overlap: usize,
+}
+
+#[derive(Debug, Args)]
+pub struct RenderArgs {
+    /// Clean images (files or directories of images).
+    #[arg(required = true, value_name = "CLEAN")]
+    pub clean: Vec<PathBuf>,
+    /// Real underwater reference images (files or directories) whose style is rendered.
+    #[arg(long, short = 'r', required = true, num_args = 1.., value_name = "REF")]
+    pub reference: Vec<PathBuf>,
+    /// Output image file (one clean image, one reference) or output directory.
+    #[arg(long, short = 'o', value_name = "PATH")]
+    pub output: PathBuf,
+    /// How clean images are paired with references.
+    #[arg(long, value_enum, default_value_t = Pairing::Cycle)]
+    pub pairing: Pairing,
+    /// Seed for random pairing.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Output format in directory mode.
+    #[arg(long, value_enum, default_value_t = OutFormat::Png)]
+    pub format: OutFormat,
+    #[command(flatten)]
+    pub depth: DepthOpts,
+    #[command(flatten)]
+    pub model: ModelOpts,
+}
+
+/// Image format written in directory mode.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum OutFormat {
+    Png,
+    Jpg,
+}
+
+impl OutFormat {
+    pub fn extension(self) -> &'static str {
+        match self {
+            OutFormat::Png => "png",
+            OutFormat::Jpg => "jpg",
+        }
+    }
+}
+
+#[derive(Debug, Args)]
+pub struct LightfieldArgs {
+    /// Reference underwater image.
+    #[arg(value_name = "REF")]
+    pub reference: PathBuf,
+    /// Output image (PNG or JPEG by extension).
+    #[arg(long, short = 'o', value_name = "MAP.png")]
+    pub output: PathBuf,
+    /// Write the map at this size WxH instead of the 256x256 the network's style is computed at.
+    #[arg(long, value_name = "WxH", value_parser = parse_size)]
+    pub size: Option<(usize, usize)>,
+}
+
+#[derive(Debug, Args)]
+pub struct DepthArgs {
+    /// Clean image.
+    #[arg(value_name = "CLEAN")]
+    pub clean: PathBuf,
+    /// Output grey image (PNG or JPEG by extension); bright = far.
+    #[arg(long, short = 'o', value_name = "DEPTH.png")]
+    pub output: PathBuf,
+    #[command(flatten)]
+    pub depth: DepthOpts,
+}
+
+#[derive(Debug, Args)]
+pub struct InfoArgs {
+    /// Weights to describe (default: the bundled model, if this build has one).
+    #[arg(long, value_name = "FILE")]
+    pub weights: Option<PathBuf>,
+    /// Image size WxH for the GMac figure.
+    #[arg(long, value_name = "WxH", value_parser = parse_size, default_value = "256x256")]
+    pub size: (usize, usize),
+    /// Base width of the architecture when no weights are given.
+    #[arg(long, default_value_t = 64)]
+    pub base_width: usize,
+}
+
+/// Parses `WxH` (e.g. `640x480`).
+pub fn parse_size(s: &str) -> Result<(usize, usize), String> {
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("expected WxH, got {s:?}"))?;
+    let w: usize = w.trim().parse().map_err(|_| format!("bad width in {s:?}"))?;
+    let h: usize = h.trim().parse().map_err(|_| format!("bad height in {s:?}"))?;
+    if w == 0 || h == 0 {
+        return Err(format!("size must be positive, got {s:?}"));
+    }
+    Ok((w, h))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::CommandFactory;
+
+    #[test]
+    fn cli_definition_is_consistent() {
+        Cli::command().debug_assert();
+    }
+
+    #[test]
+    fn sizes_parse() {
+        assert_eq!(parse_size("640x480"), Ok((640, 480)));
+        assert!(parse_size("640").is_err());
+        assert!(parse_size("0x4").is_err());
+    }
+}

@@ -1,0 +1,54 @@
+//! `uwnr info`: parameters, GMac at a size, and where the weights came from.
+
+use std::process::ExitCode;
+
+use anyhow::Result;
+use uwnr_model::GeneratorConfig;
+
+use crate::cli::InfoArgs;
+
+pub fn run(a: &InfoArgs) -> Result<ExitCode> {
+    let (w, h) = a.size;
+    let have_weights = a.weights.is_some() || super::bundled_weights().is_some();
+    let (config, source) = if have_weights {
+        let device = super::device(crate::cli::DeviceArg::Flex)?;
+        let (_g, config, info, source) = super::load_model(a.weights.as_deref(), &device)?;
+        println!("weights:     {source}");
+        println!("format:      {:?}, {:?}", info.format, info.dtype);
+        for (k, v) in &info.metadata {
+            println!("  {k}: {v}");
+        }
+        if !info.ignored_keys.is_empty() {
+            println!(
+                "ignored:     {} unused keys (e.g. {})",
+                info.ignored_keys.len(),
+                info.ignored_keys[0]
+            );
+        }
+        (config, Some(source))
+    } else {
+        let config = GeneratorConfig {
+            base_width: a.base_width,
+            ..GeneratorConfig::default()
+        };
+        (config, None)
+    };
+    if source.is_none() {
+        println!("weights:     none (this build has no bundled model; describing the architecture)");
+    }
+    println!(
+        "architecture: MHB-Unet, base width {}, {} -> {} channels",
+        config.base_width, config.in_channels, config.out_channels
+    );
+    println!(
+        "parameters:  {} used by the network, {} in the authors' checkpoint (with unused norms)",
+        uwnr_model::param_count(&config, false),
+        uwnr_model::param_count(&config, true)
+    );
+    let (pw, ph) = (w.div_ceil(16) * 16, h.div_ceil(16) * 16);
+    println!(
+        "compute:     {:.2} GMac at {w}x{h} (padded to {pw}x{ph})",
+        uwnr_model::gmacs(&config, ph, pw)
+    );
+    Ok(ExitCode::SUCCESS)
+}

@@ -1,0 +1,80 @@
+//! One module per subcommand; shared pieces (model and depth set-up) live here.
+
+mod depth;
+mod info;
+mod lightfield;
+mod render;
+
+use std::path::Path;
+use std::process::ExitCode;
+
+use anyhow::{Context, Result, bail};
+use uwnr_depth::DepthSource;
+use uwnr_model::{Device, Generator, GeneratorConfig, WeightsInfo};
+
+use crate::cli::{Cli, Command, DepthOpts, DeviceArg};
+
+/// Runs the parsed command line.
+pub fn run(cli: Cli) -> Result<ExitCode> {
+    match cli.command {
+        Command::Render(a) => render::run(&a),
+        Command::Lightfield(a) => lightfield::run(&a),
+        Command::Depth(a) => depth::run(&a),
+        Command::Info(a) => info::run(&a),
+    }
+}
+
+/// The compute device named on the command line.
+pub fn device(arg: DeviceArg) -> Result<Device> {
+    let name = match arg {
+        DeviceArg::Flex => "flex",
+        DeviceArg::Tch => "tch",
+    };
+    uwnr_model::device_from_name(name).with_context(|| format!("selecting device {name:?}"))
+}
+
+/// Weights of the model shipped inside this binary, if the build has one.
+pub fn bundled_weights() -> Option<&'static [u8]> {
+    None
+}
+
+/// Loads the generator from `--weights`, or the bundled model.
+pub fn load_model(
+    weights: Option<&Path>,
+    device: &Device,
+) -> Result<(Generator, GeneratorConfig, WeightsInfo, String)> {
+    if let Some(path) = weights {
+        let (g, c, i) = uwnr_model::load_generator(path, device)
+            .with_context(|| format!("loading weights {}", path.display()))?;
+        return Ok((g, c, i, path.display().to_string()));
+    }
+    match bundled_weights() {
+        Some(bytes) => {
+            let (g, c, i) = uwnr_model::load_generator_from_bytes(bytes, device)
+                .context("loading the bundled model")?;
+            Ok((g, c, i, "bundled model".to_string()))
+        }
+        None => bail!(
+            "this build has no bundled model: pass --weights FILE (safetensors or the authors' checkpoint)"
+        ),
+    }
+}
+
+/// The depth source chosen by the depth options.
+pub fn depth_source(o: &DepthOpts) -> DepthSource {
+    if let Some(model) = &o.depth_model {
+        DepthSource::Onnx {
+            model: model.clone(),
+            invert: o.depth_invert,
+            input_size: o.depth_input_size,
+        }
+    } else if let Some(path) = &o.depth {
+        DepthSource::Maps {
+            path: path.clone(),
+            invert: o.depth_invert,
+            normalize: o.depth_normalize,
+        }
+    } else {
+        DepthSource::Builtin
+    }
+}

@@ -1,0 +1,223 @@
+//! `Image`: a planar (CHW) f32 image with values nominally in [0, 1].
+//!
+//! Everything inside uwnr works on this type: decoding happens once at the edge
+//! (`io`), and nothing deeper sees file paths or u8 pixels.
+
+use crate::error::{CoreError, Result};
+
+/// A planar f32 image: `channels` planes of `height x width`, row-major, values in [0, 1]
+/// (RGB images have 3 channels in R, G, B order; grey maps have 1).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Image {
+    width: usize,
+    height: usize,
+    channels: usize,
+    data: Vec<f32>,
+}
+
+/// A borrowed single channel of an [`Image`].
+pub type Plane<'a> = &'a [f32];
+
+impl Image {
+    /// A new image filled with `value`.
+    #[must_use]
+    pub fn filled(width: usize, height: usize, channels: usize, value: f32) -> Self {
+        Self {
+            width,
+            height,
+            channels,
+            data: vec![value; width * height * channels],
+        }
+    }
+
+    /// Wraps planar CHW data. Fails when `data.len() != channels * height * width`.
+    pub fn from_planar(width: usize, height: usize, channels: usize, data: Vec<f32>) -> Result<Self> {
+        if data.len() != width * height * channels {
+            return Err(CoreError::ShapeMismatch {
+                expected: (channels, height, width),
+                got: (data.len(), 0, 0),
+            });
+        }
+        Ok(Self {
+            width,
+            height,
+            channels,
+            data,
+        })
+    }
+
+    /// Builds an image from interleaved HWC data (as decoders produce it).
+    pub fn from_interleaved(width: usize, height: usize, channels: usize, hwc: &[f32]) -> Result<Self> {
+        if hwc.len() != width * height * channels {
+            return Err(CoreError::ShapeMismatch {
+                expected: (height, width, channels),
+                got: (hwc.len(), 0, 0),
+            });
+        }
+        let n = width * height;
+        let mut data = vec![0.0; n * channels];
+        for (i, px) in hwc.chunks_exact(channels).enumerate() {
+            for (c, &v) in px.iter().enumerate() {
+                data[c * n + i] = v;
+            }
+        }
+        Ok(Self {
+            width,
+            height,
+            channels,
+            data,
+        })
+    }
+
+    /// Interleaved HWC copy of the data.
+    #[must_use]
+    pub fn to_interleaved(&self) -> Vec<f32> {
+        let n = self.width * self.height;
+        let mut out = vec![0.0; n * self.channels];
+        for c in 0..self.channels {
+            for (i, &v) in self.plane(c).iter().enumerate() {
+                out[i * self.channels + c] = v;
+            }
+        }
+        out
+    }
+
+    /// Width in pixels.
+    #[must_use]
+    pub fn width(&self) -> usize {
+        self.width
+    }
+
+    /// Height in pixels.
+    #[must_use]
+    pub fn height(&self) -> usize {
+        self.height
+    }
+
+    /// Number of channels (planes).
+    #[must_use]
+    pub fn channels(&self) -> usize {
+        self.channels
+    }
+
+    /// `(width, height)`.
+    #[must_use]
+    pub fn size(&self) -> (usize, usize) {
+        (self.width, self.height)
+    }
+
+    /// All planes, CHW.
+    #[must_use]
+    pub fn data(&self) -> &[f32] {
+        &self.data
+    }
+
+    /// All planes, CHW, mutable.
+    pub fn data_mut(&mut self) -> &mut [f32] {
+        &mut self.data
+    }
+
+    /// Consumes the image, returning its CHW data.
+    #[must_use]
+    pub fn into_data(self) -> Vec<f32> {
+        self.data
+    }
+
+    /// Channel `c` as a row-major `height x width` slice. Panics if `c >= channels`.
+    #[must_use]
+    pub fn plane(&self, c: usize) -> &[f32] {
+        let n = self.width * self.height;
+        &self.data[c * n..(c + 1) * n]
+    }
+
+    /// Channel `c`, mutable. Panics if `c >= channels`.
+    pub fn plane_mut(&mut self, c: usize) -> &mut [f32] {
+        let n = self.width * self.height;
+        &mut self.data[c * n..(c + 1) * n]
+    }
+
+    /// Pixel value at channel `c`, row `y`, column `x`.
+    #[must_use]
+    pub fn get(&self, c: usize, y: usize, x: usize) -> f32 {
+        self.data[(c * self.height + y) * self.width + x]
+    }
+
+    /// A copy of the rectangle `[x0, x0+w) x [y0, y0+h)`. Fails when it leaves the image.
+    pub fn crop(&self, x0: usize, y0: usize, w: usize, h: usize) -> Result<Self> {
+        if x0 + w > self.width || y0 + h > self.height {
+            return Err(CoreError::InvalidArgument(format!(
+                "crop {w}x{h}+{x0}+{y0} leaves the {}x{} image",
+                self.width, self.height
+            )));
+        }
+        let mut data = Vec::with_capacity(w * h * self.channels);
+        for c in 0..self.channels {
+            let p = self.plane(c);
+            for y in y0..y0 + h {
+                data.extend_from_slice(&p[y * self.width + x0..y * self.width + x0 + w]);
+            }
+        }
+        Ok(Self {
+            width: w,
+            height: h,
+            channels: self.channels,
+            data,
+        })
+    }
+
+    /// Clamps every value to [0, 1] in place.
+    pub fn clamp01(&mut self) {
+        for v in &mut self.data {
+            *v = v.clamp(0.0, 1.0);
+        }
+    }
+
+    /// Stacks the planes of several images of the same size into one image.
+    pub fn concat_channels(images: &[&Image]) -> Result<Self> {
+        let first = images
+            .first()
+            .ok_or_else(|| CoreError::InvalidArgument("concat of no images".into()))?;
+        let (w, h) = first.size();
+        let mut data = Vec::new();
+        let mut channels = 0;
+        for im in images {
+            if im.size() != (w, h) {
+                return Err(CoreError::ShapeMismatch {
+                    expected: (im.channels, h, w),
+                    got: (im.channels, im.height, im.width),
+                });
+            }
+            data.extend_from_slice(&im.data);
+            channels += im.channels;
+        }
+        Ok(Self {
+            width: w,
+            height: h,
+            channels,
+            data,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn interleaved_round_trip() {
+        let hwc: Vec<f32> = (0..2 * 3 * 3).map(|v| v as f32).collect();
+        let im = Image::from_interleaved(3, 2, 3, &hwc).unwrap();
+        assert_eq!(im.get(1, 0, 0), 1.0);
+        assert_eq!(im.get(0, 1, 2), 15.0);
+        assert_eq!(im.to_interleaved(), hwc);
+    }
+
+    #[test]
+    fn crop_takes_the_rectangle() {
+        let data: Vec<f32> = (0..16).map(|v| v as f32).collect();
+        let im = Image::from_planar(4, 4, 1, data).unwrap();
+        let c = im.crop(1, 2, 2, 2).unwrap();
+        assert_eq!(c.data(), &[9.0, 10.0, 13.0, 14.0]);
+        assert!(im.crop(3, 3, 2, 1).is_err());
+    }
+}

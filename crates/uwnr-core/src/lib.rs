@@ -1,0 +1,11 @@
+//! uwnr-core: the image type, decoding and encoding with limits, filters, the UWNR
+//! light-field map, the dark channel and depth-map handling. No ML framework lives here.
+
+pub mod color;
+pub mod error;
+pub mod image;
+pub mod io;
+pub mod resize;
+
+pub use error::{CoreError, Result};
+pub use image::{Image, Plane};

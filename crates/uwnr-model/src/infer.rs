@@ -1,0 +1,463 @@
+//! Rendering a clean photo into an underwater image with the UWNR generator (Ye et al.,
+//! CVPR-W 2022, Eq. 6: `x = G(concat[y, depth(y), LF(x_ref)])`), at any size.
+//!
+//! The network needs sizes that are multiples of 16 (four stride-2 levels). The input is
+//! padded up by reflection, not zeros: a zero border is an edge the convolutions respond to and
+//! it would bias the channel-attention means (the global average pools), while a mirrored
+//! border continues the local statistics. The output is cropped back and clamped to [0, 1].
+//!
+//! Large images are rendered in tiles. Everything in the network is local except channel
+//! attention, which pools over the whole image; to keep that global, tiling runs in passes:
+//! pass `k` (k = 0..4) runs every tile through the encoder up to block `k`, with the means of
+//! blocks `< k` fixed from earlier passes, and sums block `k`'s channel-attention input over the
+//! tile's core. Cores partition the padded image on a 16-pixel grid, so they partition every
+//! level and each feature is counted once. The last pass renders every tile with all four
+//! means fixed and blends neighbouring tiles with a linear ramp across their overlap.
+//!
+//! The output at a pixel depends on inputs at most [`RECEPTIVE_RADIUS`] pixels away. The ramp
+//! between two tiles is kept that far from both tiles' cut edges when the overlap allows it
+//! (overlap >= 2 x 76 + 32), in which case the blended tiles agree with the whole-image render
+//! up to float rounding; with a smaller overlap the ramp spreads over the whole overlap and
+//! hides, rather than removes, the seams.
+
+use burn::tensor::{Device, Tensor, TensorData};
+use uwnr_core::Image;
+
+use crate::config::{LEVELS, SIZE_MULTIPLE};
+use crate::error::{ModelError, Result};
+use crate::generator::Generator;
+use crate::weights::read_tensor;
+
+/// Channels of the clean RGB image (input channels 0..3).
+const CLEAN_CHANNELS: usize = 3;
+/// Channels of the depth map (input channel 3).
+const DEPTH_CHANNELS: usize = 1;
+/// Channels of the light-field map (input channels 4..7).
+const LIGHT_FIELD_CHANNELS: usize = 3;
+/// Input channels the generator must accept: clean, depth, light field.
+const INPUT_CHANNELS: usize = CLEAN_CHANNELS + DEPTH_CHANNELS + LIGHT_FIELD_CHANNELS;
+/// Output channels: RGB.
+const OUTPUT_CHANNELS: usize = 3;
+
+/// Half-width, in input pixels, of the generator's receptive field: the encoder's convs add
+/// 1+2 (level 1), 2+4, 4+8 and 8+16 (a stride-2 conv3x3 and the block's conv3x3 at spacings
+/// 1, 2, 4, 8, 16), the decoder's conv3x3 16+8+4+2 and the output conv 1: 76 in all.
+pub const RECEPTIVE_RADIUS: usize = 76;
+/// Half-width of the encoder's receptive field up to the last block (45 px), rounded up to
+/// the 16-pixel grid: the context the channel-mean passes need around each core.
+const ENCODER_MARGIN: usize = 48;
+/// Narrowest blending ramp kept when the overlap is too small to stay [`RECEPTIVE_RADIUS`]
+/// away from both cut edges.
+const MIN_RAMP: usize = 32;
+/// Overlaps are multiples of this so that a tile, extending half the overlap beyond its core,
+/// starts on the 16-pixel grid.
+const OVERLAP_MULTIPLE: usize = 2 * SIZE_MULTIPLE;
+
+/// When and how to tile.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RenderOptions {
+    /// Images whose padded size has more pixels than this are rendered in tiles; smaller ones
+    /// in one pass. 0 forces tiling.
+    pub max_tile_pixels: usize,
+    /// Largest tile side in pixels (a multiple of 16, larger than `overlap`).
+    pub tile: usize,
+    /// Pixels shared by neighbouring tiles (a multiple of 32); half of it extends each tile
+    /// beyond its core.
+    pub overlap: usize,
+}
+
+impl Default for RenderOptions {
+    /// Tiles of 1024 px (the whole image up to 1024 x 1024 px), overlapping by 192 px so the
+    /// tiled render matches the whole-image render. Peak memory at full width is set by the
+    /// tile size, not the image size.
+    fn default() -> Self {
+        Self {
+            max_tile_pixels: 1024 * 1024,
+            tile: 1024,
+            overlap: 6 * OVERLAP_MULTIPLE,
+        }
+    }
+}
+
+impl RenderOptions {
+    /// Checks the tile geometry.
+    pub fn validate(&self) -> Result<()> {
+        if self.tile == 0 || !self.tile.is_multiple_of(SIZE_MULTIPLE) {
+            return Err(ModelError::InvalidOptions(format!(
+                "tile = {} must be a positive multiple of {SIZE_MULTIPLE}",
+                self.tile
+            )));
+        }
+        if !self.overlap.is_multiple_of(OVERLAP_MULTIPLE) {
+            return Err(ModelError::InvalidOptions(format!(
+                "overlap = {} must be a multiple of {OVERLAP_MULTIPLE}",
+                self.overlap
+            )));
+        }
+        if self.overlap + SIZE_MULTIPLE > self.tile {
+            return Err(ModelError::InvalidOptions(format!(
+                "tile = {} must exceed overlap = {} by at least {SIZE_MULTIPLE}",
+                self.tile, self.overlap
+            )));
+        }
+        Ok(())
+    }
+}
+
+/// Renders `clean` (3 channels) as an underwater image in the style of `light_field`
+/// (3 channels, the light-field map of a real underwater image), using `depth` (1 channel).
+/// All three must have the same size; the output has it too, with values in [0, 1].
+pub fn render(
+    generator: &Generator,
+    clean: &Image,
+    depth: &Image,
+    light_field: &Image,
+    opts: &RenderOptions,
+    device: &Device,
+) -> Result<Image> {
+    opts.validate()?;
+    check_inputs(generator, clean, depth, light_field)?;
+    let (w, h) = clean.size();
+    let sources = [clean, depth, light_field];
+    let (hp, wp) = (padded(h), padded(w));
+    let out = if hp * wp <= opts.max_tile_pixels {
+        let region = Rect {
+            y0: 0,
+            x0: 0,
+            h: hp,
+            w: wp,
+        };
+        let x = input_tensor(&sources, region, device);
+        let y = read_tensor(generator.forward(x))?.data; // [1, 3, hp, wp]
+        crop_to_image(&y, hp, wp, h, w)?
+    } else {
+        render_tiled(generator, &sources, (hp, wp), (h, w), opts, device)?
+    };
+    let mut out = out;
+    out.clamp01();
+    Ok(out)
+}
+
+fn padded(n: usize) -> usize {
+    n.div_ceil(SIZE_MULTIPLE) * SIZE_MULTIPLE
+}
+
+fn check_inputs(generator: &Generator, clean: &Image, depth: &Image, lf: &Image) -> Result<()> {
+    let [_, cin, _, _] = generator.in_conv_down1.conv.weight.dims();
+    if cin != INPUT_CHANNELS {
+        return Err(ModelError::Channels {
+            what: "generator input",
+            expected: INPUT_CHANNELS,
+            got: cin,
+        });
+    }
+    let [cout, _, _, _] = generator.out.weight.dims();
+    if cout != OUTPUT_CHANNELS {
+        return Err(ModelError::Channels {
+            what: "generator output",
+            expected: OUTPUT_CHANNELS,
+            got: cout,
+        });
+    }
+    for (what, im, expected) in [
+        ("clean image", clean, CLEAN_CHANNELS),
+        ("depth map", depth, DEPTH_CHANNELS),
+        ("light-field map", lf, LIGHT_FIELD_CHANNELS),
+    ] {
+        if im.channels() != expected {
+            return Err(ModelError::Channels {
+                what,
+                expected,
+                got: im.channels(),
+            });
+        }
+        if im.size() != clean.size() {
+            return Err(ModelError::ImageSize {
+                what,
+                expected: clean.size(),
+                got: im.size(),
+            });
+        }
+    }
+    let (w, h) = clean.size();
+    if w == 0 || h == 0 {
+        return Err(uwnr_core::CoreError::Empty {
+            width: w,
+            height: h,
+        }
+        .into());
+    }
+    Ok(())
+}
+
+/// Index into `[0, n)` of position `i` of the image mirrored about its first and last
+/// pixels (NumPy's `reflect`), repeated for paddings wider than the image.
+fn reflect(i: usize, n: usize) -> usize {
+    if n == 1 {
+        return 0;
+    }
+    let period = 2 * (n - 1);
+    let m = i % period;
+    if m < n { m } else { period - m }
+}
+
+/// A rectangle of the padded image.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Rect {
+    y0: usize,
+    x0: usize,
+    h: usize,
+    w: usize,
+}
+
+/// The network input over `region` of the padded image: clean, depth and light field
+/// stacked, `[1, 7, region.h, region.w]`.
+fn input_tensor(sources: &[&Image; 3], region: Rect, device: &Device) -> Tensor<4> {
+    let mut data = Vec::with_capacity(INPUT_CHANNELS * region.h * region.w);
+    for im in sources {
+        let (w, h) = im.size();
+        let cols: Vec<usize> = (region.x0..region.x0 + region.w)
+            .map(|x| reflect(x, w))
+            .collect();
+        for c in 0..im.channels() {
+            let plane = im.plane(c);
+            for y in region.y0..region.y0 + region.h {
+                let row = &plane[reflect(y, h) * w..][..w];
+                data.extend(cols.iter().map(|&x| row[x]));
+            }
+        }
+    }
+    Tensor::from_data(
+        TensorData::new(data, [1, INPUT_CHANNELS, region.h, region.w]),
+        device,
+    )
+}
+
+/// The top-left `h x w` of a `[1, 3, hp, wp]` output as an image.
+fn crop_to_image(y: &[f32], hp: usize, wp: usize, h: usize, w: usize) -> Result<Image> {
+    let mut data = Vec::with_capacity(OUTPUT_CHANNELS * h * w);
+    for c in 0..OUTPUT_CHANNELS {
+        for row in 0..h {
+            data.extend_from_slice(&y[(c * hp + row) * wp..][..w]);
+        }
+    }
+    Ok(Image::from_planar(w, h, OUTPUT_CHANNELS, data)?)
+}
+
+/// Core boundaries along one axis of length `len` (a multiple of 16): `n + 1` multiples of 16
+/// from 0 to `len`, with cores of at most `max_core` pixels, as equal as the grid allows.
+fn core_bounds(len: usize, max_core: usize) -> Vec<usize> {
+    let units = len / SIZE_MULTIPLE;
+    let max_units = (max_core / SIZE_MULTIPLE).max(1);
+    let n = units.div_ceil(max_units).max(1);
+    (0..=n)
+        .map(|i| (i * units).div_ceil(n) * SIZE_MULTIPLE)
+        .collect()
+}
+
+/// Extent `[start, end)` of the tile around core `[b0, b1)`, extended by `margin` and clipped.
+fn tile_extent(b0: usize, b1: usize, margin: usize, len: usize) -> (usize, usize) {
+    (b0.saturating_sub(margin), (b1 + margin).min(len))
+}
+
+/// Blending weight along one axis of the tile around core `i` (bounds `b`), for the tile's
+/// pixels `[start, end)`. Across the boundary `b[j]` between two tiles, the left tile's weight
+/// falls and the right tile's rises linearly over `[b[j] - half + guard, b[j] + half - guard]`;
+/// the two sum to 1.
+fn axis_weights(b: &[usize], i: usize, start: usize, end: usize, half: usize, guard: usize) -> Vec<f32> {
+    let ramp = |boundary: usize, p: usize, rising: bool| -> f32 {
+        let lo = (boundary + guard) as f64 - half as f64;
+        let hi = (boundary + half) as f64 - guard as f64;
+        let x = p as f64 + 0.5;
+        let t = if hi > lo {
+            ((x - lo) / (hi - lo)).clamp(0.0, 1.0)
+        } else if x >= boundary as f64 {
+            1.0
+        } else {
+            0.0
+        };
+        (if rising { t } else { 1.0 - t }) as f32
+    };
+    let last = b.len() - 2;
+    (start..end)
+        .map(|p| {
+            let left = if i > 0 { ramp(b[i], p, true) } else { 1.0 };
+            let right = if i < last { ramp(b[i + 1], p, false) } else { 1.0 };
+            left * right
+        })
+        .collect()
+}
+
+fn render_tiled(
+    generator: &Generator,
+    sources: &[&Image; 3],
+    (hp, wp): (usize, usize),
+    (h, w): (usize, usize),
+    opts: &RenderOptions,
+    device: &Device,
+) -> Result<Image> {
+    let half = opts.overlap / 2;
+    let max_core = opts.tile - opts.overlap;
+    let by = core_bounds(hp, max_core);
+    let bx = core_bounds(wp, max_core);
+    let cores = || {
+        (0..by.len() - 1).flat_map(|i| (0..bx.len() - 1).map(move |j| (i, j)))
+    };
+
+    // Passes 0..LEVELS: the global mean of each block's channel-attention input.
+    let enc_margin = half.min(ENCODER_MARGIN);
+    let mut means: Vec<Tensor<4>> = Vec::with_capacity(LEVELS);
+    for level in 0..LEVELS {
+        let scale = 1 << (level + 1);
+        let mut sum: Vec<f64> = Vec::new();
+        for (i, j) in cores() {
+            let (y0, y1) = tile_extent(by[i], by[i + 1], enc_margin, hp);
+            let (x0, x1) = tile_extent(bx[j], bx[j + 1], enc_margin, wp);
+            let region = Rect {
+                y0,
+                x0,
+                h: y1 - y0,
+                w: x1 - x0,
+            };
+            let x = input_tensor(sources, region, device);
+            let a = generator.channel_attention_input(x, &means)?; // [1, c, h/s, w/s]
+            let core = a
+                .slice([
+                    0..1,
+                    0..a.dims()[1],
+                    (by[i] - y0) / scale..(by[i + 1] - y0) / scale,
+                    (bx[j] - x0) / scale..(bx[j + 1] - x0) / scale,
+                ])
+                .sum_dim(2)
+                .sum_dim(3); // [1, c, 1, 1]
+            let core = read_tensor(core)?.data;
+            if sum.is_empty() {
+                sum = vec![0.0; core.len()];
+            }
+            for (s, v) in sum.iter_mut().zip(core) {
+                *s += f64::from(v);
+            }
+        }
+        let count = ((hp / scale) * (wp / scale)) as f64;
+        let c = sum.len();
+        let mean: Vec<f32> = sum.into_iter().map(|s| (s / count) as f32).collect();
+        means.push(Tensor::from_data(TensorData::new(mean, [1, c, 1, 1]), device));
+    }
+    let means: [Tensor<4>; LEVELS] = means
+        .try_into()
+        .map_err(|_| ModelError::InvalidOptions("channel means incomplete".into()))?;
+
+    // Final pass: render each tile with the global means and blend.
+    let guard = RECEPTIVE_RADIUS.min(opts.overlap.saturating_sub(MIN_RAMP) / 2);
+    let mut acc = vec![0.0f32; OUTPUT_CHANNELS * h * w];
+    let mut weight = vec![0.0f32; h * w];
+    for (i, j) in cores() {
+        let (y0, y1) = tile_extent(by[i], by[i + 1], half, hp);
+        let (x0, x1) = tile_extent(bx[j], bx[j + 1], half, wp);
+        // Rows and columns past the image are padding: no need to keep them.
+        if y0 >= h || x0 >= w {
+            continue;
+        }
+        let region = Rect {
+            y0,
+            x0,
+            h: y1 - y0,
+            w: x1 - x0,
+        };
+        let x = input_tensor(sources, region, device);
+        let y = read_tensor(generator.forward_with_channel_means(x, &means))?.data;
+        let wy = axis_weights(&by, i, y0, y1, half, guard);
+        let wx = axis_weights(&bx, j, x0, x1, half, guard);
+        for (ty, &wyv) in wy.iter().enumerate().take(h.min(y1) - y0) {
+            let row = y0 + ty;
+            for (tx, &wxv) in wx.iter().enumerate().take(w.min(x1) - x0) {
+                let wt = wyv * wxv;
+                if wt == 0.0 {
+                    continue;
+                }
+                let col = x0 + tx;
+                weight[row * w + col] += wt;
+                for c in 0..OUTPUT_CHANNELS {
+                    acc[(c * h + row) * w + col] +=
+                        wt * y[(c * region.h + ty) * region.w + tx];
+                }
+            }
+        }
+    }
+    for c in 0..OUTPUT_CHANNELS {
+        for (a, &wt) in acc[c * h * w..(c + 1) * h * w].iter_mut().zip(&weight) {
+            // Every pixel lies in the core of some tile, where that tile's weight is >= 1/16.
+            *a /= wt;
+        }
+    }
+    Ok(Image::from_planar(w, h, OUTPUT_CHANNELS, acc)?)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reflect_mirrors_without_repeating_the_edge() {
+        let idx: Vec<usize> = (0..10).map(|i| reflect(i, 4)).collect();
+        assert_eq!(idx, [0, 1, 2, 3, 2, 1, 0, 1, 2, 3]);
+        assert_eq!(reflect(5, 1), 0);
+    }
+
+    #[test]
+    fn cores_partition_on_the_grid() {
+        for (len, max_core) in [(3008, 832), (192, 64), (160, 64), (16, 16), (4000, 320)] {
+            let b = core_bounds(len, max_core);
+            assert_eq!(b[0], 0);
+            assert_eq!(*b.last().unwrap(), len);
+            for pair in b.windows(2) {
+                assert!(pair[1] > pair[0]);
+                assert!(pair[1] - pair[0] <= max_core);
+                assert_eq!(pair[0] % 16, 0);
+            }
+        }
+    }
+
+    #[test]
+    fn ramps_are_complementary_and_positive() {
+        let b = core_bounds(640, 160);
+        let (half, guard) = (96, 76);
+        let mut total = vec![0.0f32; 640];
+        for i in 0..b.len() - 1 {
+            let (s, e) = tile_extent(b[i], b[i + 1], half, 640);
+            for (p, wv) in (s..e).zip(axis_weights(&b, i, s, e, half, guard)) {
+                total[p] += wv;
+                // Nothing is taken from within the guard of a cut edge.
+                if wv > 0.0 {
+                    assert!(i == 0 || p >= s + guard, "tile {i} px {p}");
+                    assert!(i == b.len() - 2 || p + guard < e, "tile {i} px {p}");
+                }
+            }
+        }
+        for t in total {
+            assert!((t - 1.0).abs() < 1e-6, "{t}");
+        }
+    }
+
+    #[test]
+    fn options_are_validated() {
+        RenderOptions::default().validate().unwrap();
+        for bad in [
+            RenderOptions {
+                tile: 100,
+                ..Default::default()
+            },
+            RenderOptions {
+                overlap: 48,
+                ..Default::default()
+            },
+            RenderOptions {
+                tile: 192,
+                overlap: 192,
+                max_tile_pixels: 0,
+            },
+        ] {
+            assert!(bad.validate().is_err(), "{bad:?}");
+        }
+    }
+}

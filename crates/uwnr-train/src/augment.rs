@@ -1,0 +1,291 @@
+//! Training samples: the data order of each epoch and the random crop, flip, rotation and
+//! colour cast of each sample, all pure functions of `(seed, epoch, position)` so that a run
+//! gives the same batches whatever the thread timing and a resumed run continues exactly.
+//!
+//! As in the released `UWS_Dataset_Retinex.augData`: a random crop (the same window of the
+//! clean image, its depth and the underwater image), a horizontal flip with probability 1/2,
+//! then a rotation by 0/90/180/270 degrees counter-clockwise (torchvision's `rotate`), and the
+//! light-field map computed from the augmented underwater crop at the crop's own size
+//! (`MutiScaleLuminanceEstimation` on the crop). The optional colour cast (not in the paper)
+//! multiplies each channel of the underwater crop by a gain and applies a gamma before the
+//! light field is computed, so the map always describes the target the network must produce.
+
+use rand::seq::SliceRandom;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use uwnr_core::Image;
+
+use crate::config::{AugmentConfig, ColorCast};
+use crate::data::PairData;
+use crate::error::{Result, TrainError};
+
+/// Channels of the network input: clean RGB, depth, light field.
+pub const INPUT_CHANNELS: usize = 7;
+/// Channels of the target.
+pub const TARGET_CHANNELS: usize = 3;
+/// Stream tag of the per-epoch data order.
+const STREAM_ORDER: u64 = 0x6f72_6465_72; // "order"
+/// Stream tag of the per-sample augmentation.
+const STREAM_SAMPLE: u64 = 0x7361_6d70_6c65; // "sample"
+
+/// SplitMix64 finaliser (Steele et al. 2014): mixes a 64-bit word so nearby inputs give
+/// unrelated seeds.
+#[must_use]
+pub fn mix64(mut z: u64) -> u64 {
+    z = z.wrapping_add(0x9e37_79b9_7f4a_7c15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
+}
+
+/// A generator seeded from `(seed, stream, a, b)`.
+fn rng_for(seed: u64, stream: u64, a: u64, b: u64) -> ChaCha8Rng {
+    ChaCha8Rng::seed_from_u64(mix64(mix64(mix64(seed ^ stream) ^ a) ^ b))
+}
+
+/// The order in which epoch `epoch` visits the `n` pairs: a seeded permutation.
+#[must_use]
+pub fn epoch_order(seed: u64, epoch: usize, n: usize) -> Vec<usize> {
+    let mut order: Vec<usize> = (0..n).collect();
+    order.shuffle(&mut rng_for(seed, STREAM_ORDER, epoch as u64, 0));
+    order
+}
+
+/// A colour cast: a gain per channel, then a gamma.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Cast {
+    /// R, G, B gains.
+    pub gains: [f32; 3],
+    /// Exponent applied after the gains (`v^gamma`).
+    pub gamma: f32,
+}
+
+/// Everything random about one sample.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SamplePlan {
+    /// Index of the pair in the training set.
+    pub pair: usize,
+    /// Left column of the crop.
+    pub x0: usize,
+    /// Top row of the crop.
+    pub y0: usize,
+    /// Horizontal flip.
+    pub flip: bool,
+    /// Counter-clockwise quarter turns (0..4), after the flip.
+    pub quarter_turns: u8,
+    /// Colour cast of the underwater crop.
+    pub cast: Option<Cast>,
+}
+
+/// The plan of sample `position` of epoch `epoch`, for `pair` of size `width x height`.
+#[must_use]
+pub fn plan_sample(
+    seed: u64,
+    epoch: usize,
+    position: usize,
+    pair: (usize, usize, usize),
+    crop: usize,
+    aug: &AugmentConfig,
+) -> SamplePlan {
+    let (index, width, height) = pair;
+    let mut rng = rng_for(seed, STREAM_SAMPLE, epoch as u64, position as u64);
+    let x0 = rng.random_range(0..=width.saturating_sub(crop));
+    let y0 = rng.random_range(0..=height.saturating_sub(crop));
+    // Always draw every value so that switching one augmentation off leaves the others' draws.
+    let flip = rng.random_bool(0.5);
+    let turns = rng.random_range(0..4_u8);
+    let cast = draw_cast(&mut rng, aug.color_cast.as_ref());
+    SamplePlan {
+        pair: index,
+        x0,
+        y0,
+        flip: aug.flip && flip,
+        quarter_turns: if aug.rotate { turns } else { 0 },
+        cast,
+    }
+}
+
+fn draw_cast(rng: &mut ChaCha8Rng, cfg: Option<&ColorCast>) -> Option<Cast> {
+    let cfg = cfg?;
+    let apply = rng.random::<f32>() < cfg.probability;
+    let mut gains = [1.0_f32; 3];
+    for g in &mut gains {
+        *g = uniform(rng, cfg.gain.0, cfg.gain.1);
+    }
+    // Log-uniform, so that gamma and 1/gamma are equally likely for symmetric ranges.
+    let gamma = uniform(rng, cfg.gamma.0.ln(), cfg.gamma.1.ln()).exp();
+    apply.then_some(Cast { gains, gamma })
+}
+
+fn uniform(rng: &mut ChaCha8Rng, lo: f32, hi: f32) -> f32 {
+    if hi > lo { rng.random_range(lo..hi) } else { lo }
+}
+
+/// One training sample: the network input `[7, crop, crop]` and the target `[3, crop, crop]`,
+/// planar.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Sample {
+    /// Clean RGB, depth, light field.
+    pub input: Vec<f32>,
+    /// The (possibly colour-cast) underwater crop.
+    pub target: Vec<f32>,
+}
+
+/// Cuts, flips, rotates and casts the sample of `plan` from `pair`, then computes the light
+/// field of the underwater crop with `light_field` (the released procedure at the crop's size).
+pub fn make_sample(
+    pair: &PairData,
+    plan: &SamplePlan,
+    crop: usize,
+    light_field: impl Fn(&Image) -> Result<Image>,
+) -> Result<Sample> {
+    if pair.width < crop || pair.height < crop || plan.x0 + crop > pair.width || plan.y0 + crop > pair.height {
+        return Err(TrainError::BadImage {
+            path: pair.name.clone().into(),
+            reason: format!(
+                "crop {crop}x{crop}+{}+{} leaves the {}x{} pair",
+                plan.x0, plan.y0, pair.width, pair.height
+            ),
+        });
+    }
+    let n = crop * crop;
+    let mut clean = vec![0.0_f32; 3 * n];
+    let mut under = vec![0.0_f32; 3 * n];
+    let mut depth = vec![0.0_f32; n];
+    let (w, h) = (pair.width, pair.height);
+    let plane8 = pair.width * pair.height;
+    for oy in 0..crop {
+        for ox in 0..crop {
+            // Output pixel (ox, oy) shows the augmented-crop pixel: undo the rotation, then the flip.
+            let (cx, cy) = source_of(ox, oy, crop, plan.flip, plan.quarter_turns);
+            let src = (plan.y0 + cy) * w + plan.x0 + cx;
+            let dst = oy * crop + ox;
+            for c in 0..3 {
+                clean[c * n + dst] = f32::from(pair.clean[c * plane8 + src]) / 255.0;
+                under[c * n + dst] = f32::from(pair.underwater[c * plane8 + src]) / 255.0;
+            }
+            depth[dst] = f32::from(pair.depth[src]) / 65_535.0;
+        }
+    }
+    debug_assert!(h >= crop);
+    if let Some(cast) = plan.cast {
+        apply_cast(&mut under, n, &cast);
+    }
+    let under_img = Image::from_planar(crop, crop, 3, under)?;
+    let lf = light_field(&under_img)?;
+    if lf.size() != (crop, crop) || lf.channels() != 3 {
+        return Err(TrainError::BadImage {
+            path: pair.name.clone().into(),
+            reason: format!(
+                "light field is {}x{}x{}, expected {crop}x{crop}x3",
+                lf.width(),
+                lf.height(),
+                lf.channels()
+            ),
+        });
+    }
+    let mut input = Vec::with_capacity(INPUT_CHANNELS * n);
+    input.extend_from_slice(&clean);
+    input.extend_from_slice(&depth);
+    input.extend_from_slice(lf.data());
+    Ok(Sample {
+        input,
+        target: under_img.into_data(),
+    })
+}
+
+/// Where output pixel `(x, y)` of the augmented `crop x crop` sample comes from in the
+/// un-augmented crop: the sample is `rotate_ccw^turns(flip?(crop))`.
+#[must_use]
+pub fn source_of(x: usize, y: usize, crop: usize, flip: bool, turns: u8) -> (usize, usize) {
+    let last = crop - 1;
+    // Undo the counter-clockwise quarter turns one by one: a CCW turn maps source (sx, sy) to
+    // (sy, last - sx), so its inverse maps (x, y) to (last - y, x).
+    let (mut sx, mut sy) = (x, y);
+    for _ in 0..turns % 4 {
+        (sx, sy) = (last - sy, sx);
+    }
+    if flip {
+        sx = last - sx;
+    }
+    (sx, sy)
+}
+
+/// `v <- clamp(v * gain_c, 0, 1)^gamma` on planar RGB with `n` pixels a plane.
+pub fn apply_cast(rgb: &mut [f32], n: usize, cast: &Cast) {
+    for (c, plane) in rgb.chunks_exact_mut(n).enumerate().take(3) {
+        let g = cast.gains[c];
+        for v in plane {
+            *v = (*v * g).clamp(0.0, 1.0).powf(cast.gamma);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn epoch_order_is_a_seeded_permutation() {
+        let a = epoch_order(1, 0, 50);
+        let mut sorted = a.clone();
+        sorted.sort_unstable();
+        assert_eq!(sorted, (0..50).collect::<Vec<_>>());
+        assert_eq!(a, epoch_order(1, 0, 50));
+        assert_ne!(a, epoch_order(1, 1, 50));
+        assert_ne!(a, epoch_order(2, 0, 50));
+    }
+
+    #[test]
+    fn one_quarter_turn_is_counter_clockwise() {
+        // A 2x2 crop [[a, b], [c, d]] turned CCW is [[b, d], [a, c]].
+        let src = |x: usize, y: usize| ["ab", "cd"][y].as_bytes()[x] as char;
+        let turned: String = (0..2)
+            .flat_map(|y| (0..2).map(move |x| (x, y)))
+            .map(|(x, y)| {
+                let (sx, sy) = source_of(x, y, 2, false, 1);
+                src(sx, sy)
+            })
+            .collect();
+        assert_eq!(turned, "bdac");
+        // Flip first: [[b, a], [d, c]], then CCW: [[a, c], [b, d]].
+        let flipped: String = (0..2)
+            .flat_map(|y| (0..2).map(move |x| (x, y)))
+            .map(|(x, y)| {
+                let (sx, sy) = source_of(x, y, 2, true, 1);
+                src(sx, sy)
+            })
+            .collect();
+        assert_eq!(flipped, "acbd");
+        for turns in 0..4 {
+            assert_eq!(source_of(0, 0, 5, false, turns * 4 % 4), (0, 0));
+        }
+    }
+
+    #[test]
+    fn plans_stay_inside_and_follow_the_switches() {
+        let aug = AugmentConfig {
+            flip: false,
+            rotate: false,
+            color_cast: None,
+        };
+        for pos in 0..100 {
+            let p = plan_sample(3, 2, pos, (0, 40, 33), 32, &aug);
+            assert!(p.x0 <= 8 && p.y0 <= 1);
+            assert!(!p.flip && p.quarter_turns == 0 && p.cast.is_none());
+        }
+        let aug = AugmentConfig {
+            color_cast: Some(ColorCast::default()),
+            ..AugmentConfig::default()
+        };
+        let plans: Vec<SamplePlan> = (0..200).map(|i| plan_sample(3, 2, i, (0, 64, 64), 32, &aug)).collect();
+        assert!(plans.iter().any(|p| p.flip) && plans.iter().any(|p| !p.flip));
+        assert!((0..4).all(|t| plans.iter().any(|p| p.quarter_turns == t)));
+        for p in &plans {
+            let c = p.cast.unwrap();
+            assert!(c.gains.iter().all(|g| (0.5..1.6).contains(g)));
+            assert!((0.8..1.25).contains(&c.gamma));
+        }
+        assert_eq!(plans[7], plan_sample(3, 2, 7, (0, 64, 64), 32, &aug));
+    }
+}

@@ -1,0 +1,454 @@
+//! `TrainConfig`: everything a training run depends on, serialised into the run folder as
+//! `config.json`. `Default` is the paper's recipe as the released `train_ddp.py` runs it
+//! (UWNR, Ye et al., CVPR-W 2022, Sec. 4.1): random 256x256 crops with horizontal flips and
+//! rotations by multiples of 90 degrees, batch 16, AdamW (lr 2e-4, betas 0.9/0.999, weight
+//! decay 1e-6), 200 epochs with the learning rate constant for the first half and decaying
+//! linearly to 0 over the second, and the loss `0.6 L1 + 0.5 perceptual + 0.5 dark channel +
+//! 0.5 light-field consistency`.
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+use uwnr_depth::DepthSource;
+use uwnr_model::GeneratorConfig;
+use uwnr_model::config::SIZE_MULTIPLE;
+
+use crate::error::{Result, TrainError};
+
+/// Released `option.py` / paper: AdamW learning rate.
+pub const PAPER_LR: f64 = 2e-4;
+/// `torch.optim.AdamW(..., betas=[0.9, 0.999])` in `train_ddp.py`.
+pub const PAPER_BETAS: (f32, f32) = (0.9, 0.999);
+/// `weight_decay=0.000001` in `train_ddp.py`.
+pub const PAPER_WEIGHT_DECAY: f32 = 1e-6;
+/// PyTorch's AdamW default `eps` (the released script does not change it).
+pub const TORCH_ADAMW_EPS: f32 = 1e-8;
+/// Paper: 200 epochs.
+pub const PAPER_EPOCHS: usize = 200;
+/// Paper: batch size 16.
+pub const PAPER_BATCH: usize = 16;
+/// Paper: random 256x256 crops.
+pub const PAPER_CROP: usize = 256;
+/// `init_seeds(41 + rank)` in `train_ddp.py` (rank 0).
+pub const PAPER_SEED: u64 = 41;
+/// Released loss weights: `0.6 * L1`.
+pub const PAPER_W_RECONSTRUCTION: f64 = 0.6;
+/// `0.5 * PerceptualLoss`.
+pub const PAPER_W_PERCEPTUAL: f64 = 0.5;
+/// `0.5 * DCLoss_Two(15)`.
+pub const PAPER_W_DARK_CHANNEL: f64 = 0.5;
+/// `0.5 * Retinex_loss1` (the light-field consistency term).
+pub const PAPER_W_LIGHT_FIELD: f64 = 0.5;
+/// `DCLoss_Two(15)`: the dark channel's local window.
+pub const PAPER_DARK_CHANNEL_WINDOW: usize = 15;
+/// Colour-cast gains measured useful in the calibration runs (TRAINING-NOTES): each channel of
+/// the underwater target multiplied by a gain drawn from [0.5, 1.6].
+pub const COLOR_CAST_GAIN: (f32, f32) = (0.5, 1.6);
+/// Gamma range of the colour-cast augmentation (`v^gamma`, drawn per sample).
+pub const COLOR_CAST_GAMMA: (f32, f32) = (0.8, 1.25);
+
+/// The light-field consistency loss variant.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LightFieldLoss {
+    /// The paper's definition (Sec. 3.4): L1 between the light-field maps of the output and
+    /// the target, each the mean of Gaussian blurs with sigma 15, 60, 90, in the log domain,
+    /// min-max normalised (see [`crate::losses::light_field_map`]).
+    #[default]
+    Paper,
+    /// The released code's behaviour: its blur radius is 0 (`r = 0` in
+    /// `loss/retinex_loss.py`), so the term reduces to a plain L1 between output and target.
+    Released,
+}
+
+/// What replaces the VGG19 perceptual term when no VGG19 weights are given.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PerceptualFallback {
+    /// `1 - SSIM` with an 11x11 Gaussian window (sigma 1.5), a structure term that needs no
+    /// pretrained weights (see [`crate::losses::ssim_loss`]).
+    #[default]
+    Ssim,
+    /// Drop the term.
+    None,
+}
+
+/// How images smaller than the crop are brought up to it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SmallImagePolicy {
+    /// Upscale the pair (bilinear, aspect ratio kept) until the short side equals the crop.
+    #[default]
+    Upscale,
+    /// Pad by reflection to the crop size.
+    Pad,
+}
+
+/// Weights of the loss terms.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LossWeights {
+    /// L1 reconstruction.
+    pub reconstruction: f64,
+    /// VGG19 perceptual term (or its stand-in, see [`PerceptualFallback`]).
+    pub perceptual: f64,
+    /// Underwater dark channel.
+    pub dark_channel: f64,
+    /// Light-field consistency.
+    pub light_field: f64,
+}
+
+impl Default for LossWeights {
+    fn default() -> Self {
+        Self {
+            reconstruction: PAPER_W_RECONSTRUCTION,
+            perceptual: PAPER_W_PERCEPTUAL,
+            dark_channel: PAPER_W_DARK_CHANNEL,
+            light_field: PAPER_W_LIGHT_FIELD,
+        }
+    }
+}
+
+/// Random colour cast of the underwater target: per-channel gains and a gamma, after which the
+/// light-field map is recomputed from the altered target, so that the clean image cannot
+/// predict the target's colour and the network must read it from the light field.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ColorCast {
+    /// Probability that a sample is cast.
+    pub probability: f32,
+    /// Per-channel gain range `[min, max]`, drawn uniformly and independently per channel.
+    pub gain: (f32, f32),
+    /// Gamma range `[min, max]` (one gamma per sample, drawn log-uniformly).
+    pub gamma: (f32, f32),
+}
+
+impl Default for ColorCast {
+    fn default() -> Self {
+        Self {
+            probability: 1.0,
+            gain: COLOR_CAST_GAIN,
+            gamma: COLOR_CAST_GAMMA,
+        }
+    }
+}
+
+/// Data augmentation.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AugmentConfig {
+    /// Random horizontal flip (released `augData`).
+    pub flip: bool,
+    /// Random rotation by 0, 90, 180 or 270 degrees (released `augData`).
+    pub rotate: bool,
+    /// Colour cast of the underwater target (not in the paper; off by default).
+    #[serde(default)]
+    pub color_cast: Option<ColorCast>,
+}
+
+impl Default for AugmentConfig {
+    fn default() -> Self {
+        Self {
+            flip: true,
+            rotate: true,
+            color_cast: None,
+        }
+    }
+}
+
+/// A training run's configuration.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct TrainConfig {
+    /// The generator's widths.
+    pub model: GeneratorConfig,
+    /// Passes over the training pairs.
+    pub epochs: usize,
+    /// Samples per optimisation step.
+    pub batch_size: usize,
+    /// Side of the square random crops (a multiple of 16).
+    pub crop: usize,
+    /// Seed of the weight initialisation, the data order and the augmentation.
+    pub seed: u64,
+    /// AdamW learning rate.
+    pub lr: f64,
+    /// AdamW `(beta_1, beta_2)`.
+    pub betas: (f32, f32),
+    /// AdamW decoupled weight decay.
+    pub weight_decay: f32,
+    /// AdamW epsilon.
+    pub epsilon: f32,
+    /// Epoch (0-based) after which the learning rate decays linearly to 0 at the last step;
+    /// `None` = half of `epochs`.
+    pub decay_start_epoch: Option<usize>,
+    /// Loss weights.
+    pub loss: LossWeights,
+    /// Light-field loss variant.
+    pub light_field_loss: LightFieldLoss,
+    /// What stands in for the perceptual term without VGG19 weights.
+    pub perceptual_fallback: PerceptualFallback,
+    /// Window of the underwater dark channel.
+    pub dark_channel_window: usize,
+    /// Augmentation.
+    pub augment: AugmentConfig,
+    /// Images smaller than the crop.
+    pub small_images: SmallImagePolicy,
+    /// Where depth maps come from when a data folder has no `depth/` folder.
+    pub depth: DepthSource,
+    /// Use at most this many pairs of each data folder (the first ones in name order);
+    /// `None` = all.
+    pub max_pairs_per_dir: Option<usize>,
+    /// Validate every this many epochs (0 = never).
+    pub val_every_epochs: usize,
+    /// Pairs shown in each validation contact sheet.
+    pub val_sheet_pairs: usize,
+    /// Write a row of `metrics.csv` every this many steps (the mean over those steps).
+    pub log_every_steps: usize,
+    /// Write the `last` checkpoint every this many steps (0 = only at epoch ends)...
+    pub checkpoint_every_steps: usize,
+    /// ...or when this many seconds of wall time have passed since the last one (0 = off).
+    pub checkpoint_every_secs: u64,
+    /// Batches prepared ahead of the training step by the loader thread.
+    pub prefetch_batches: usize,
+}
+
+impl Default for TrainConfig {
+    fn default() -> Self {
+        Self {
+            model: GeneratorConfig::default(),
+            epochs: PAPER_EPOCHS,
+            batch_size: PAPER_BATCH,
+            crop: PAPER_CROP,
+            seed: PAPER_SEED,
+            lr: PAPER_LR,
+            betas: PAPER_BETAS,
+            weight_decay: PAPER_WEIGHT_DECAY,
+            epsilon: TORCH_ADAMW_EPS,
+            decay_start_epoch: None,
+            loss: LossWeights::default(),
+            light_field_loss: LightFieldLoss::default(),
+            perceptual_fallback: PerceptualFallback::default(),
+            dark_channel_window: PAPER_DARK_CHANNEL_WINDOW,
+            augment: AugmentConfig::default(),
+            small_images: SmallImagePolicy::default(),
+            depth: DepthSource::Builtin,
+            max_pairs_per_dir: None,
+            val_every_epochs: 10,
+            val_sheet_pairs: 4,
+            log_every_steps: 10,
+            checkpoint_every_steps: 0,
+            checkpoint_every_secs: 900,
+            prefetch_batches: 2,
+        }
+    }
+}
+
+impl TrainConfig {
+    /// Checks every field that could make a run fail late.
+    pub fn validate(&self) -> Result<()> {
+        let bad = |field: &'static str, reason: String| Err(TrainError::InvalidConfig { field, reason });
+        self.model
+            .validate()
+            .map_err(|e| TrainError::InvalidConfig {
+                field: "model",
+                reason: e.to_string(),
+            })?;
+        if self.epochs == 0 {
+            return bad("epochs", "must be at least 1".into());
+        }
+        if self.batch_size == 0 {
+            return bad("batch_size", "must be at least 1".into());
+        }
+        if self.crop == 0 || !self.crop.is_multiple_of(SIZE_MULTIPLE) {
+            return bad(
+                "crop",
+                format!("{} must be a positive multiple of {SIZE_MULTIPLE}", self.crop),
+            );
+        }
+        if !(self.lr.is_finite() && self.lr > 0.0) {
+            return bad("lr", format!("{} must be positive", self.lr));
+        }
+        for (field, b) in [("betas.0", self.betas.0), ("betas.1", self.betas.1)] {
+            if !(0.0..1.0).contains(&b) {
+                return bad(field, format!("{b} must be in [0, 1)"));
+            }
+        }
+        if let Some(d) = self.decay_start_epoch
+            && d >= self.epochs
+        {
+            return bad(
+                "decay_start_epoch",
+                format!("{d} must be below epochs = {}", self.epochs),
+            );
+        }
+        if self.dark_channel_window == 0 || self.dark_channel_window.is_multiple_of(2) {
+            return bad(
+                "dark_channel_window",
+                format!("{} must be odd", self.dark_channel_window),
+            );
+        }
+        let w = self.loss;
+        for (field, v) in [
+            ("loss.reconstruction", w.reconstruction),
+            ("loss.perceptual", w.perceptual),
+            ("loss.dark_channel", w.dark_channel),
+            ("loss.light_field", w.light_field),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return bad(field, format!("{v} must be finite and >= 0"));
+            }
+        }
+        if let Some(c) = self.augment.color_cast {
+            if !(0.0..=1.0).contains(&c.probability) {
+                return bad(
+                    "augment.color_cast.probability",
+                    format!("{} must be in [0, 1]", c.probability),
+                );
+            }
+            if !(c.gain.0 > 0.0 && c.gain.0 <= c.gain.1) {
+                return bad(
+                    "augment.color_cast.gain",
+                    format!("{:?} must be 0 < min <= max", c.gain),
+                );
+            }
+            if !(c.gamma.0 > 0.0 && c.gamma.0 <= c.gamma.1) {
+                return bad(
+                    "augment.color_cast.gamma",
+                    format!("{:?} must be 0 < min <= max", c.gamma),
+                );
+            }
+        }
+        if self.log_every_steps == 0 {
+            return bad("log_every_steps", "must be at least 1".into());
+        }
+        if self.prefetch_batches == 0 {
+            return bad("prefetch_batches", "must be at least 1".into());
+        }
+        Ok(())
+    }
+
+    /// The epoch (0-based) from which the learning rate decays.
+    #[must_use]
+    pub fn decay_start(&self) -> usize {
+        self.decay_start_epoch.unwrap_or(self.epochs / 2)
+    }
+
+    /// Learning rate at optimisation step `step` (0-based) of a run of `steps_per_epoch`
+    /// steps per epoch: `lr` up to the start of epoch [`Self::decay_start`], then falling
+    /// linearly to 0 at the end of the last epoch. (The released `LambdaLR` does this per
+    /// epoch, `1 - max(0, e - 100) / 100`; per step it reaches 0 exactly and has no jumps.)
+    #[must_use]
+    pub fn lr_at(&self, step: usize, steps_per_epoch: usize) -> f64 {
+        let total = self.epochs * steps_per_epoch;
+        let start = self.decay_start() * steps_per_epoch;
+        if step < start || total <= start {
+            return self.lr;
+        }
+        let left = total.saturating_sub(step) as f64;
+        self.lr * left / (total - start) as f64
+    }
+
+    /// Reads a config from JSON. Fields not given keep their defaults; unknown fields are an
+    /// error.
+    pub fn from_json_file(path: &Path) -> Result<Self> {
+        let text = std::fs::read_to_string(path).map_err(|source| TrainError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        serde_json::from_str(&text).map_err(|e| TrainError::Config {
+            path: path.to_path_buf(),
+            reason: e.to_string(),
+        })
+    }
+
+    /// Pretty JSON of the config.
+    pub fn to_json(&self) -> Result<String> {
+        serde_json::to_string_pretty(self).map_err(|e| TrainError::InvalidConfig {
+            field: "config",
+            reason: e.to_string(),
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn default_is_the_paper_recipe() {
+        let c = TrainConfig::default();
+        c.validate().unwrap();
+        assert_eq!((c.epochs, c.batch_size, c.crop), (200, 16, 256));
+        assert_eq!(c.decay_start(), 100);
+        assert_eq!(c.model.base_width, 64);
+        assert!(c.augment.flip && c.augment.rotate && c.augment.color_cast.is_none());
+    }
+
+    #[test]
+    fn lr_is_constant_then_linear_to_zero() {
+        let c = TrainConfig {
+            epochs: 4,
+            lr: 1.0,
+            ..TrainConfig::default()
+        };
+        // 10 steps per epoch: constant for epochs 0-1 (steps 0..20), then 20 steps to 0.
+        assert_eq!(c.lr_at(0, 10), 1.0);
+        assert_eq!(c.lr_at(19, 10), 1.0);
+        assert_eq!(c.lr_at(20, 10), 1.0);
+        assert!((c.lr_at(30, 10) - 0.5).abs() < 1e-12);
+        assert!((c.lr_at(39, 10) - 0.05).abs() < 1e-12);
+        assert_eq!(c.lr_at(40, 10), 0.0);
+    }
+
+    #[test]
+    fn json_round_trip_and_partial_files() {
+        let c = TrainConfig {
+            light_field_loss: LightFieldLoss::Released,
+            augment: AugmentConfig {
+                color_cast: Some(ColorCast::default()),
+                ..AugmentConfig::default()
+            },
+            ..TrainConfig::default()
+        };
+        let back: TrainConfig = serde_json::from_str(&c.to_json().unwrap()).unwrap();
+        assert_eq!(back, c);
+        let partial: TrainConfig =
+            serde_json::from_str(r#"{"epochs": 3, "light_field_loss": "released"}"#).unwrap();
+        assert_eq!(partial.epochs, 3);
+        assert_eq!(partial.light_field_loss, LightFieldLoss::Released);
+        assert_eq!(partial.batch_size, PAPER_BATCH);
+        assert!(serde_json::from_str::<TrainConfig>(r#"{"epoch": 3}"#).is_err());
+    }
+
+    #[test]
+    fn invalid_fields_are_named() {
+        for (c, field) in [
+            (
+                TrainConfig {
+                    crop: 100,
+                    ..TrainConfig::default()
+                },
+                "crop",
+            ),
+            (
+                TrainConfig {
+                    dark_channel_window: 14,
+                    ..TrainConfig::default()
+                },
+                "dark_channel_window",
+            ),
+            (
+                TrainConfig {
+                    batch_size: 0,
+                    ..TrainConfig::default()
+                },
+                "batch_size",
+            ),
+        ] {
+            match c.validate() {
+                Err(TrainError::InvalidConfig { field: f, .. }) => assert_eq!(f, field),
+                other => panic!("expected InvalidConfig for {field}, got {other:?}"),
+            }
+        }
+    }
+}

@@ -1,0 +1,41 @@
+//! uwnr-train: training of the UWNR generator (Ye et al., "Underwater Light Field Retention:
+//! Neural Rendering for Underwater Imaging", CVPR-W 2022) in burn.
+//!
+//! - [`config::TrainConfig`]: the run's settings; `Default` is the paper's recipe;
+//! - [`data`]: paired folders, decoding, depth computed once;
+//! - [`augment`], [`loader`]: crops, flips, rotations, colour casts and the light field of each
+//!   sample, a pure function of `(seed, epoch, position)`, prepared on a producer thread;
+//! - [`losses`], [`vgg`]: L1, VGG19 perceptual (or an SSIM stand-in), underwater dark channel,
+//!   light-field consistency;
+//! - [`trainer::train`]: the loop, validation, checkpoints ([`checkpoint`]) and exact resume.
+//!
+//! ```no_run
+//! use std::sync::atomic::AtomicBool;
+//! use uwnr_train::{TrainConfig, TrainOptions, train};
+//! # fn main() -> Result<(), uwnr_train::TrainError> {
+//! let cfg = TrainConfig::default();
+//! let opts = TrainOptions::new(vec!["data/uieb".into()], "runs/uieb".into(), uwnr_model::Device::flex());
+//! let summary = train(&cfg, &opts, &AtomicBool::new(false), &mut |_event| {})?;
+//! println!("{} steps", summary.step);
+//! # Ok(())
+//! # }
+//! ```
+
+pub mod augment;
+pub mod checkpoint;
+pub mod config;
+pub mod csvlog;
+pub mod data;
+pub mod error;
+pub mod lf;
+pub mod loader;
+pub mod losses;
+pub mod plot;
+pub mod trainer;
+pub mod vgg;
+
+pub use config::{AugmentConfig, ColorCast, LightFieldLoss, LossWeights, PerceptualFallback, SmallImagePolicy, TrainConfig};
+pub use error::{Result, TrainError};
+pub use losses::{Criterion, LossValues};
+pub use trainer::{Event, TrainOptions, TrainSummary, ValResult, train, train_step};
+pub use vgg::Vgg19Features;

@@ -1,0 +1,184 @@
+//! The batch producer: a thread that prepares batches ahead of the training step and hands
+//! them over a bounded channel; the samples of a batch are prepared in parallel (rayon).
+//!
+//! Batch `k` of epoch `e` holds the samples at positions `k * batch .. (k + 1) * batch` of the
+//! epoch's order ([`crate::augment::epoch_order`]); the incomplete last batch of an epoch is
+//! dropped so every step sees the same batch size. Because each sample is a pure function of
+//! `(seed, epoch, position)`, the stream does not depend on thread timing and can be restarted
+//! at any batch.
+
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
+use std::thread::JoinHandle;
+
+use rayon::prelude::*;
+use uwnr_core::Image;
+
+use crate::augment::{INPUT_CHANNELS, Sample, TARGET_CHANNELS, epoch_order, make_sample, plan_sample};
+use crate::config::AugmentConfig;
+use crate::data::PairData;
+use crate::error::{Result, TrainError};
+
+/// A batch ready for the network.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Batch {
+    /// Epoch (0-based).
+    pub epoch: usize,
+    /// Batch index within the epoch.
+    pub index: usize,
+    /// Samples in the batch.
+    pub size: usize,
+    /// Crop side.
+    pub crop: usize,
+    /// `[size, 7, crop, crop]`, row-major.
+    pub input: Vec<f32>,
+    /// `[size, 3, crop, crop]`, row-major.
+    pub target: Vec<f32>,
+}
+
+/// What the producer needs to build batches.
+#[derive(Clone)]
+pub struct BatchSpec {
+    /// Training pairs.
+    pub pairs: Arc<Vec<PairData>>,
+    /// Seed of order and augmentation.
+    pub seed: u64,
+    /// Samples per batch.
+    pub batch_size: usize,
+    /// Crop side.
+    pub crop: usize,
+    /// Augmentation.
+    pub augment: AugmentConfig,
+    /// The light-field map of an underwater crop, at the crop's size.
+    pub light_field: fn(&Image) -> uwnr_core::Result<Image>,
+}
+
+impl BatchSpec {
+    /// Full batches per epoch.
+    #[must_use]
+    pub fn batches_per_epoch(&self) -> usize {
+        self.pairs.len() / self.batch_size.max(1)
+    }
+
+    /// Builds batch `index` of epoch `epoch` (pure: the same arguments give the same batch).
+    pub fn batch(&self, epoch: usize, index: usize) -> Result<Batch> {
+        let order = epoch_order(self.seed, epoch, self.pairs.len());
+        self.batch_with_order(&order, epoch, index)
+    }
+
+    fn batch_with_order(&self, order: &[usize], epoch: usize, index: usize) -> Result<Batch> {
+        let start = index * self.batch_size;
+        let positions = start..start + self.batch_size;
+        if positions.end > order.len() {
+            return Err(TrainError::Loader(format!(
+                "batch {index} of epoch {epoch} needs positions up to {}, the epoch has {}",
+                positions.end,
+                order.len()
+            )));
+        }
+        let lf = self.light_field;
+        let samples: Vec<Result<Sample>> = positions
+            .into_par_iter()
+            .map(|pos| {
+                let pi = order[pos];
+                let pair = &self.pairs[pi];
+                let plan = plan_sample(
+                    self.seed,
+                    epoch,
+                    pos,
+                    (pi, pair.width, pair.height),
+                    self.crop,
+                    &self.augment,
+                );
+                make_sample(pair, &plan, self.crop, |im| Ok(lf(im)?))
+            })
+            .collect();
+        let n = self.crop * self.crop;
+        let mut input = Vec::with_capacity(self.batch_size * INPUT_CHANNELS * n);
+        let mut target = Vec::with_capacity(self.batch_size * TARGET_CHANNELS * n);
+        for s in samples {
+            let s = s?;
+            input.extend_from_slice(&s.input);
+            target.extend_from_slice(&s.target);
+        }
+        Ok(Batch {
+            epoch,
+            index,
+            size: self.batch_size,
+            crop: self.crop,
+            input,
+            target,
+        })
+    }
+}
+
+/// The running producer. Dropping it stops the thread.
+pub struct Loader {
+    rx: Option<Receiver<Result<Batch>>>,
+    stop: Arc<AtomicBool>,
+    handle: Option<JoinHandle<()>>,
+}
+
+impl Loader {
+    /// Starts producing from batch `start_index` of epoch `start_epoch` up to the end of epoch
+    /// `end_epoch - 1`, keeping at most `prefetch` batches ready.
+    pub fn start(spec: BatchSpec, start_epoch: usize, start_index: usize, end_epoch: usize, prefetch: usize) -> Self {
+        let (tx, rx) = sync_channel(prefetch.max(1));
+        let stop = Arc::new(AtomicBool::new(false));
+        let flag = stop.clone();
+        let handle = std::thread::Builder::new()
+            .name("uwnr-batches".into())
+            .spawn(move || produce(&spec, start_epoch, start_index, end_epoch, &tx, &flag))
+            .ok();
+        Self {
+            rx: Some(rx),
+            stop,
+            handle,
+        }
+    }
+
+    /// The next batch, or `None` after the last epoch.
+    pub fn next_batch(&mut self) -> Option<Result<Batch>> {
+        if self.handle.is_none() {
+            return Some(Err(TrainError::Loader("the loader thread could not be started".into())));
+        }
+        self.rx.as_ref()?.recv().ok()
+    }
+}
+
+impl Drop for Loader {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        // Dropping the receiver unblocks a producer waiting on a full channel.
+        self.rx = None;
+        if let Some(h) = self.handle.take() {
+            let _ = h.join();
+        }
+    }
+}
+
+fn produce(
+    spec: &BatchSpec,
+    start_epoch: usize,
+    start_index: usize,
+    end_epoch: usize,
+    tx: &SyncSender<Result<Batch>>,
+    stop: &AtomicBool,
+) {
+    let per_epoch = spec.batches_per_epoch();
+    for epoch in start_epoch..end_epoch {
+        let order = epoch_order(spec.seed, epoch, spec.pairs.len());
+        let first = if epoch == start_epoch { start_index } else { 0 };
+        for index in first..per_epoch {
+            if stop.load(Ordering::Relaxed) {
+                return;
+            }
+            let batch = spec.batch_with_order(&order, epoch, index);
+            let failed = batch.is_err();
+            if tx.send(batch).is_err() || failed {
+                return;
+            }
+        }
+    }
+}
