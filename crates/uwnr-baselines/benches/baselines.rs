@@ -6,8 +6,8 @@ use std::hint::black_box;
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use uwnr_baselines::{
-    JerlovParams, Method, ReferenceCoefficients, ReinhardParams, RenderInput, SeathruCoefficients, SeathruParams,
-    UisaParams, render,
+    JerlovParams, Method, ReferenceCoefficients, ReinhardParams, RenderInput, SeathruCoefficients,
+    SeathruParams, UisaParams, render,
 };
 use uwnr_core::Image;
 

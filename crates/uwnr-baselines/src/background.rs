@@ -78,10 +78,30 @@ fn search(img: &Image, min_fraction: f64) -> Rect {
     while (r.w * r.h) as f64 > min_fraction * total && r.w >= 2 && r.h >= 2 {
         let (hw, hh) = (r.w / 2, r.h / 2);
         let quadrants = [
-            Rect { x: r.x, y: r.y, w: hw, h: hh },
-            Rect { x: r.x + hw, y: r.y, w: r.w - hw, h: hh },
-            Rect { x: r.x, y: r.y + hh, w: hw, h: r.h - hh },
-            Rect { x: r.x + hw, y: r.y + hh, w: r.w - hw, h: r.h - hh },
+            Rect {
+                x: r.x,
+                y: r.y,
+                w: hw,
+                h: hh,
+            },
+            Rect {
+                x: r.x + hw,
+                y: r.y,
+                w: r.w - hw,
+                h: hh,
+            },
+            Rect {
+                x: r.x,
+                y: r.y + hh,
+                w: hw,
+                h: r.h - hh,
+            },
+            Rect {
+                x: r.x + hw,
+                y: r.y + hh,
+                w: r.w - hw,
+                h: r.h - hh,
+            },
         ];
         let mut best = quadrants[0];
         let mut best_score = score(img, best);
@@ -101,7 +121,11 @@ fn search(img: &Image, min_fraction: f64) -> Rect {
 ///
 /// `min_fraction` is the stopping size as a fraction of the pixels, in (0, 1]
 /// ([`SUID_MIN_REGION_FRACTION`] in the paper).
-pub fn quadtree_background(img: &Image, min_fraction: f64, pick: BackgroundPick) -> Result<[f64; 3]> {
+pub fn quadtree_background(
+    img: &Image,
+    min_fraction: f64,
+    pick: BackgroundPick,
+) -> Result<[f64; 3]> {
     check_image(img, "reference", 3)?;
     check_in(
         "min_region_fraction",
@@ -174,7 +198,15 @@ mod tests {
         let img = scene();
         // 1% of 400 px is 4 px: sides 20 -> 10 -> 5 -> 2, inside the flat quadrant.
         let r = search(&img, 0.01);
-        assert_eq!(r, Rect { x: 10, y: 10, w: 2, h: 2 });
+        assert_eq!(
+            r,
+            Rect {
+                x: 10,
+                y: 10,
+                w: 2,
+                h: 2
+            }
+        );
         let b = quadtree_background(&img, 0.01, BackgroundPick::Mean).unwrap();
         for (got, want) in b.iter().zip([0.2, 0.6, 0.8]) {
             assert!((got - want).abs() < 1e-6, "{b:?}");

@@ -47,7 +47,10 @@ impl Range {
         if !ok || self.min > self.max || self.min < lowest || self.max > highest {
             return Err(BaselineError::InvalidParam {
                 name,
-                value: format!("({}, {}] (allowed within [{lowest}, {highest}])", self.min, self.max),
+                value: format!(
+                    "({}, {}] (allowed within [{lowest}, {highest}])",
+                    self.min, self.max
+                ),
                 reason: "must be finite with min <= max, inside the allowed interval",
             });
         }
@@ -99,7 +102,13 @@ pub(crate) fn checked_depth(clean: &Image, depth: &Image) -> Result<Vec<f32>> {
 }
 
 /// Fails unless `v` is finite and within `[lo, hi]`.
-pub(crate) fn check_in(name: &'static str, v: f64, lo: f64, hi: f64, reason: &'static str) -> Result<()> {
+pub(crate) fn check_in(
+    name: &'static str,
+    v: f64,
+    lo: f64,
+    hi: f64,
+    reason: &'static str,
+) -> Result<()> {
     if !(v.is_finite() && v >= lo && v <= hi) {
         return Err(BaselineError::InvalidParam {
             name,
@@ -130,7 +139,12 @@ pub(crate) fn form_image(
     let mut out = vec![0.0f32; 3 * n];
     for (c, plane_out) in out.chunks_exact_mut(n).enumerate() {
         let plane_in = clean.plane(c);
-        let (g, a, s, b) = (gain[c] as f32, att[c] as f32, bs[c] as f32, background[c] as f32);
+        let (g, a, s, b) = (
+            gain[c] as f32,
+            att[c] as f32,
+            bs[c] as f32,
+            background[c] as f32,
+        );
         plane_out
             .par_chunks_mut(PAR_CHUNK)
             .zip(plane_in.par_chunks(PAR_CHUNK))
@@ -185,7 +199,11 @@ mod tests {
         assert!(Range::new(2.0, 1.0).validate("r", 0.0, f64::MAX).is_err());
         assert!(Range::new(-1.0, 1.0).validate("r", 0.0, f64::MAX).is_err());
         assert!(Range::new(0.0, 10.0).validate("r", 0.0, 9.0).is_err());
-        assert!(Range::new(f64::NAN, 1.0).validate("r", 0.0, f64::MAX).is_err());
+        assert!(
+            Range::new(f64::NAN, 1.0)
+                .validate("r", 0.0, f64::MAX)
+                .is_err()
+        );
     }
 
     #[test]
@@ -200,7 +218,15 @@ mod tests {
         let clean = Image::from_planar(2, 1, 3, vec![0.5, 0.5, 0.2, 0.2, 1.0, 0.0]).unwrap();
         let depth = [0.0f32, 1.0];
         let ln2 = std::f64::consts::LN_2;
-        let out = form_image(&clean, &depth, [1.0; 3], [ln2; 3], [ln2; 3], [0.8, 0.6, 0.4]).unwrap();
+        let out = form_image(
+            &clean,
+            &depth,
+            [1.0; 3],
+            [ln2; 3],
+            [ln2; 3],
+            [0.8, 0.6, 0.4],
+        )
+        .unwrap();
         // d = 0: the clean pixel; d = 1: t = 0.5, I = 0.5·J + 0.5·B.
         let want = [0.5, 0.25 + 0.4, 0.2, 0.1 + 0.3, 1.0, 0.2];
         for (g, w) in out.data().iter().zip(want) {

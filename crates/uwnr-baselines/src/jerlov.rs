@@ -128,7 +128,9 @@ impl WaterType {
     /// The type called `name` (`"I"`, `"IA"`, ..., `"9C"`, case-insensitive).
     #[must_use]
     pub fn from_name(name: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|t| t.name().eq_ignore_ascii_case(name))
+        Self::ALL
+            .into_iter()
+            .find(|t| t.name().eq_ignore_ascii_case(name))
     }
 }
 
@@ -166,9 +168,14 @@ impl Default for JerlovParams {
 impl JerlovParams {
     /// Checks the ranges and the gain.
     pub fn validate(&self) -> Result<()> {
-        self.depth_scale.validate("jerlov.depth_scale", 0.0, f64::MAX)?;
-        self.background_depth.validate("jerlov.background_depth", 0.0, f64::MAX)?;
-        if !(self.background_gain.is_finite() && self.background_gain > 0.0 && self.background_gain <= MAX_BACKGROUND_GAIN) {
+        self.depth_scale
+            .validate("jerlov.depth_scale", 0.0, f64::MAX)?;
+        self.background_depth
+            .validate("jerlov.background_depth", 0.0, f64::MAX)?;
+        if !(self.background_gain.is_finite()
+            && self.background_gain > 0.0
+            && self.background_gain <= MAX_BACKGROUND_GAIN)
+        {
             return Err(BaselineError::InvalidParam {
                 name: "jerlov.background_gain",
                 value: self.background_gain.to_string(),
@@ -198,7 +205,11 @@ pub(crate) fn render(params: &JerlovParams, input: &RenderInput, seed: u64) -> R
     // t_c = N_c^(d·s) = exp(−(−ln N_c)·s·d): attenuation per unit of relative depth.
     let att = n.map(|nc| -nc.ln() * depth_scale);
     let background = n.map(|nc| params.background_gain * nc.powf(background_depth));
-    let gain = if params.illuminate_scene { background } else { [1.0; 3] };
+    let gain = if params.illuminate_scene {
+        background
+    } else {
+        [1.0; 3]
+    };
     let image = form_image(input.clean, &depth, gain, att, att, background)?;
 
     let params_json = json!({

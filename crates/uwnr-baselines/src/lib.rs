@@ -48,7 +48,10 @@ pub use common::Range;
 pub use error::{BaselineError, Result};
 pub use jerlov::{JERLOV_TYPES, JerlovParams, WaterType};
 pub use reinhard::{ColourSpace, ReinhardParams};
-pub use seathru::{GivenCoefficients, ReferenceCoefficients, SampledCoefficients, SeathruCoefficients, SeathruParams};
+pub use seathru::{
+    GivenCoefficients, ReferenceCoefficients, SampledCoefficients, SeathruCoefficients,
+    SeathruParams,
+};
 pub use uisa::{AttenuationRatio, UisaParams};
 
 /// A baseline and its parameters. Serialised with a `"method"` tag, e.g.

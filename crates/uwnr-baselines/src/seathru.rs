@@ -37,9 +37,13 @@ use serde::{Deserialize, Serialize};
 use serde_json::json;
 
 use crate::background::{BackgroundPick, SUID_MIN_REGION_FRACTION, quadtree_background};
-use crate::common::{Range, check_image, check_in, checked_depth, form_image, rng_from_seed, round6, round6_3};
+use crate::common::{
+    Range, check_image, check_in, checked_depth, form_image, rng_from_seed, round6, round6_3,
+};
 use crate::error::{BaselineError, Result};
-use crate::jerlov::{JERLOV_TYPES, UWCNN_BACKGROUND_DEPTH_M, UWCNN_BACKGROUND_GAIN, UWCNN_DEPTH_SCALE_M};
+use crate::jerlov::{
+    JERLOV_TYPES, UWCNN_BACKGROUND_DEPTH_M, UWCNN_BACKGROUND_GAIN, UWCNN_DEPTH_SCALE_M,
+};
 use crate::uisa::{REFERENCE_MAX_SIDE, fit_within};
 use crate::{RenderInput, Rendered};
 
@@ -176,7 +180,8 @@ fn check_beta(name: &'static str, beta: [f64; 3]) -> Result<()> {
 impl SeathruParams {
     /// Checks every range and coefficient.
     pub fn validate(&self) -> Result<()> {
-        self.depth_scale.validate("seathru.depth_scale", 0.0, f64::MAX)?;
+        self.depth_scale
+            .validate("seathru.depth_scale", 0.0, f64::MAX)?;
         match &self.coefficients {
             SeathruCoefficients::Given(g) => {
                 check_beta("seathru.beta_d", g.beta_d)?;
@@ -186,9 +191,12 @@ impl SeathruParams {
                 }
             }
             SeathruCoefficients::Sampled(s) => {
-                s.water.validate("seathru.water", 0.0, JERLOV_LAST_POSITION)?;
-                s.backscatter_ratio.validate("seathru.backscatter_ratio", 0.0, f64::MAX)?;
-                s.background_depth.validate("seathru.background_depth", 0.0, f64::MAX)?;
+                s.water
+                    .validate("seathru.water", 0.0, JERLOV_LAST_POSITION)?;
+                s.backscatter_ratio
+                    .validate("seathru.backscatter_ratio", 0.0, f64::MAX)?;
+                s.background_depth
+                    .validate("seathru.background_depth", 0.0, f64::MAX)?;
                 check_in(
                     "seathru.background_gain",
                     s.background_gain,
@@ -198,8 +206,10 @@ impl SeathruParams {
                 )?;
             }
             SeathruCoefficients::FromReference(r) => {
-                r.backscatter_ratio.validate("seathru.backscatter_ratio", 0.0, f64::MAX)?;
-                r.background_depth.validate("seathru.background_depth", 0.0, f64::MAX)?;
+                r.backscatter_ratio
+                    .validate("seathru.backscatter_ratio", 0.0, f64::MAX)?;
+                r.background_depth
+                    .validate("seathru.background_depth", 0.0, f64::MAX)?;
                 check_in(
                     "seathru.min_region_fraction",
                     r.min_region_fraction,
@@ -233,7 +243,11 @@ fn nearest_type(position: f64) -> &'static str {
 
 fn chromaticity(v: [f64; 3]) -> [f64; 3] {
     let s: f64 = v.iter().sum();
-    if s > 0.0 { v.map(|x| x / s) } else { [1.0 / 3.0; 3] }
+    if s > 0.0 {
+        v.map(|x| x / s)
+    } else {
+        [1.0 / 3.0; 3]
+    }
 }
 
 /// The manifold position and background depth whose background `exp(−β^D·D)` has the hue of
@@ -247,7 +261,8 @@ pub fn fit_water_to_background(b_inf: [f64; 3], depths: Range) -> (f64, f64, f64
         let u = i as f64 * FIT_POSITION_STEP;
         let beta = jerlov_manifold(u);
         for k in 0..FIT_DEPTH_STEPS {
-            let depth = depths.min + (depths.max - depths.min) * k as f64 / (FIT_DEPTH_STEPS - 1) as f64;
+            let depth =
+                depths.min + (depths.max - depths.min) * k as f64 / (FIT_DEPTH_STEPS - 1) as f64;
             let hue = chromaticity(beta.map(|b| (-b * depth).exp()));
             let err: f64 = (0..3).map(|c| (hue[c] - target[c]).powi(2)).sum();
             if err < best.2 {
@@ -270,7 +285,8 @@ pub(crate) fn render(params: &SeathruParams, input: &RenderInput, seed: u64) -> 
             let beta_d = jerlov_manifold(position);
             let k: [f64; 3] = std::array::from_fn(|_| s.backscatter_ratio.sample(&mut rng));
             let background_depth = s.background_depth.sample(&mut rng);
-            let b_inf = beta_d.map(|b| (s.background_gain * (-b * background_depth).exp()).min(1.0));
+            let b_inf =
+                beta_d.map(|b| (s.background_gain * (-b * background_depth).exp()).min(1.0));
             let beta_b = std::array::from_fn(|c| k[c] * beta_d[c]);
             let source = json!({
                 "mode": "sampled",
@@ -283,11 +299,14 @@ pub(crate) fn render(params: &SeathruParams, input: &RenderInput, seed: u64) -> 
             (beta_d, beta_b, b_inf, source)
         }
         SeathruCoefficients::FromReference(r) => {
-            let reference = input.reference.ok_or(BaselineError::MissingReference { method: "seathru" })?;
+            let reference = input
+                .reference
+                .ok_or(BaselineError::MissingReference { method: "seathru" })?;
             check_image(reference, "reference", 3)?;
             let work = fit_within(reference, REFERENCE_MAX_SIDE)?;
             let b_inf = quadtree_background(&work, r.min_region_fraction, r.background_pick)?;
-            let (position, background_depth, residual) = fit_water_to_background(b_inf, r.background_depth);
+            let (position, background_depth, residual) =
+                fit_water_to_background(b_inf, r.background_depth);
             let beta_d = jerlov_manifold(position);
             let k: [f64; 3] = std::array::from_fn(|_| r.backscatter_ratio.sample(&mut rng));
             let beta_b = std::array::from_fn(|c| k[c] * beta_d[c]);
@@ -362,7 +381,10 @@ mod tests {
         assert!(s.contains("\"mode\":\"from_reference\""), "{s}");
         let back: SeathruParams = serde_json::from_str(&s).unwrap();
         assert_eq!(back, p);
-        let partial: SeathruParams = serde_json::from_str(r#"{"coefficients":{"mode":"sampled","water":{"min":0,"max":2}}}"#).unwrap();
+        let partial: SeathruParams = serde_json::from_str(
+            r#"{"coefficients":{"mode":"sampled","water":{"min":0,"max":2}}}"#,
+        )
+        .unwrap();
         match partial.coefficients {
             SeathruCoefficients::Sampled(s) => {
                 assert_eq!(s.water, Range::new(0.0, 2.0));

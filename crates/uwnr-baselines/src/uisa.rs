@@ -31,6 +31,7 @@
 use serde::{Deserialize, Serialize};
 use serde_json::json;
 use uwnr_core::Image;
+use uwnr_core::dark_channel::dark_channel;
 use uwnr_core::resize::resize_bilinear;
 
 use crate::background::{BackgroundPick, SUID_MIN_REGION_FRACTION, quadtree_background};
@@ -163,7 +164,12 @@ pub(crate) fn fit_within(img: &Image, max_side: usize) -> Result<Image> {
 }
 
 /// The reference's red-channel-prior transmission `t_ref` (1 channel), clamped to `[floor, 1]`.
-pub fn red_channel_transmission(reference: &Image, background: [f64; 3], window: usize, floor: f64) -> Result<Image> {
+pub fn red_channel_transmission(
+    reference: &Image,
+    background: [f64; 3],
+    window: usize,
+    floor: f64,
+) -> Result<Image> {
     check_image(reference, "reference", 3)?;
     let (w, h) = reference.size();
     let n = w * h;
@@ -192,13 +198,17 @@ pub fn red_channel_transmission(reference: &Image, background: [f64; 3], window:
 pub(crate) fn render(params: &UisaParams, input: &RenderInput) -> Result<Rendered> {
     params.validate()?;
     let depth = checked_depth(input.clean, input.depth)?;
-    let reference = input.reference.ok_or(BaselineError::MissingReference { method: "uisa" })?;
+    let reference = input
+        .reference
+        .ok_or(BaselineError::MissingReference { method: "uisa" })?;
     check_image(reference, "reference", 3)?;
     let work = fit_within(reference, params.reference_max_side)?;
 
-    let background = quadtree_background(&work, params.min_region_fraction, params.background_pick)?
-        .map(|v| v.clamp(BACKGROUND_MARGIN, 1.0 - BACKGROUND_MARGIN));
-    let t_ref = red_channel_transmission(&work, background, params.window, params.transmission_floor)?;
+    let background =
+        quadtree_background(&work, params.min_region_fraction, params.background_pick)?
+            .map(|v| v.clamp(BACKGROUND_MARGIN, 1.0 - BACKGROUND_MARGIN));
+    let t_ref =
+        red_channel_transmission(&work, background, params.window, params.transmission_floor)?;
     let t_median = f64::from(median(t_ref.data()).unwrap_or(1.0));
 
     let depth_median = f64::from(median(&depth).unwrap_or(0.0));
@@ -264,10 +274,18 @@ mod tests {
             Image::from_planar(4, 4, 3, data).unwrap()
         };
         let t = red_channel_transmission(&flat(1.0), b, 3, 0.1).unwrap();
-        assert!(t.data().iter().all(|&v| (v - 0.1).abs() < 1e-6), "{:?}", t.data());
+        assert!(
+            t.data().iter().all(|&v| (v - 0.1).abs() < 1e-6),
+            "{:?}",
+            t.data()
+        );
         let t = red_channel_transmission(&flat(0.5), b, 3, 0.1).unwrap();
         // (1 − 0.1)/(1 − 0.2) = 1.125 for red, 0.5 for green and blue: t = 1 − 0.5.
-        assert!(t.data().iter().all(|&v| (v - 0.5).abs() < 1e-6), "{:?}", t.data());
+        assert!(
+            t.data().iter().all(|&v| (v - 0.5).abs() < 1e-6),
+            "{:?}",
+            t.data()
+        );
     }
 
     #[test]
@@ -278,25 +296,4 @@ mod tests {
         let tiny = Image::filled(100, 50, 3, 0.5);
         assert_eq!(fit_within(&tiny, 512).unwrap().size(), (100, 50));
     }
-}
-
-// TEMP-STUB: replaced by uwnr_core::dark_channel::dark_channel once it lands.
-fn dark_channel(img: &Image, channels: &[usize], window: usize) -> uwnr_core::Result<Image> {
-    let (w, h) = img.size();
-    let r = (window / 2) as isize;
-    let mut out = vec![0.0f32; w * h];
-    for y in 0..h as isize {
-        for x in 0..w as isize {
-            let mut m = f32::INFINITY;
-            for yy in (y - r).max(0)..(y + r + 1).min(h as isize) {
-                for xx in (x - r).max(0)..(x + r + 1).min(w as isize) {
-                    for &c in channels {
-                        m = m.min(img.get(c, yy as usize, xx as usize));
-                    }
-                }
-            }
-            out[(y as usize) * w + x as usize] = m;
-        }
-    }
-    Image::from_planar(w, h, 1, out)
 }

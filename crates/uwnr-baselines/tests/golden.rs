@@ -8,8 +8,8 @@ use std::path::{Path, PathBuf};
 
 use serde_json::Value;
 use uwnr_baselines::{
-    AttenuationRatio, ColourSpace, JerlovParams, Method, ReferenceCoefficients, ReinhardParams, RenderInput,
-    SeathruCoefficients, SeathruParams, UisaParams, WaterType, render,
+    AttenuationRatio, ColourSpace, JerlovParams, Method, ReferenceCoefficients, ReinhardParams,
+    RenderInput, SeathruCoefficients, SeathruParams, UisaParams, WaterType, render,
 };
 use uwnr_core::Image;
 use uwnr_core::io::{DecodeLimits, load_rgb, save_rgb, to_rgb8};
@@ -55,9 +55,13 @@ fn json_close(a: &Value, b: &Value) -> bool {
             (Some(x), Some(y)) => (x - y).abs() <= PARAM_TOL * (1.0 + x.abs()),
             _ => x == y,
         },
-        (Value::Array(x), Value::Array(y)) => x.len() == y.len() && x.iter().zip(y).all(|(x, y)| json_close(x, y)),
+        (Value::Array(x), Value::Array(y)) => {
+            x.len() == y.len() && x.iter().zip(y).all(|(x, y)| json_close(x, y))
+        }
         (Value::Object(x), Value::Object(y)) => {
-            x.len() == y.len() && x.iter().all(|(k, v)| y.get(k).is_some_and(|w| json_close(v, w)))
+            x.len() == y.len()
+                && x.iter()
+                    .all(|(k, v)| y.get(k).is_some_and(|w| json_close(v, w)))
         }
         _ => a == b,
     }
@@ -79,7 +83,11 @@ fn check_golden(name: &str, method: &Method, reference: Option<&str>) {
     if regenerate() {
         std::fs::create_dir_all(&dir).unwrap();
         save_rgb(&png, &out.image).unwrap();
-        std::fs::write(&json, serde_json::to_string_pretty(&out.params).unwrap() + "\n").unwrap();
+        std::fs::write(
+            &json,
+            serde_json::to_string_pretty(&out.params).unwrap() + "\n",
+        )
+        .unwrap();
         eprintln!("rewrote {}", png.display());
         return;
     }
@@ -115,7 +123,11 @@ fn compare_png(name: &str, png: &Path, image: &Image) {
 
 #[test]
 fn jerlov_random_water() {
-    check_golden("jerlov-random", &Method::Jerlov(JerlovParams::default()), None);
+    check_golden(
+        "jerlov-random",
+        &Method::Jerlov(JerlovParams::default()),
+        None,
+    );
 }
 
 #[test]
@@ -130,7 +142,11 @@ fn jerlov_type_3c_released_script_lighting() {
 
 #[test]
 fn uisa_blue_reference() {
-    check_golden("uisa-blue", &Method::Uisa(UisaParams::default()), Some("ref-blue.jpg"));
+    check_golden(
+        "uisa-blue",
+        &Method::Uisa(UisaParams::default()),
+        Some("ref-blue.jpg"),
+    );
 }
 
 #[test]
@@ -139,17 +155,29 @@ fn uisa_green_reference_wavelength_only() {
         attenuation_ratio: AttenuationRatio::Wavelength,
         ..UisaParams::default()
     };
-    check_golden("uisa-green-wavelength", &Method::Uisa(p), Some("ref-green.png"));
+    check_golden(
+        "uisa-green-wavelength",
+        &Method::Uisa(p),
+        Some("ref-green.png"),
+    );
 }
 
 #[test]
 fn uisa_green_reference() {
-    check_golden("uisa-green", &Method::Uisa(UisaParams::default()), Some("ref-green.png"));
+    check_golden(
+        "uisa-green",
+        &Method::Uisa(UisaParams::default()),
+        Some("ref-green.png"),
+    );
 }
 
 #[test]
 fn seathru_sampled() {
-    check_golden("seathru-sampled", &Method::Seathru(SeathruParams::default()), None);
+    check_golden(
+        "seathru-sampled",
+        &Method::Seathru(SeathruParams::default()),
+        None,
+    );
 }
 
 #[test]
@@ -158,16 +186,30 @@ fn seathru_from_blue_reference() {
         coefficients: SeathruCoefficients::FromReference(ReferenceCoefficients::default()),
         ..SeathruParams::default()
     };
-    check_golden("seathru-ref-blue", &Method::Seathru(p), Some("ref-blue.jpg"));
+    check_golden(
+        "seathru-ref-blue",
+        &Method::Seathru(p),
+        Some("ref-blue.jpg"),
+    );
 }
 
 #[test]
 fn reinhard_lalphabeta_blue() {
-    check_golden("reinhard-blue", &Method::Reinhard(ReinhardParams::default()), Some("ref-blue.jpg"));
+    check_golden(
+        "reinhard-blue",
+        &Method::Reinhard(ReinhardParams::default()),
+        Some("ref-blue.jpg"),
+    );
 }
 
 #[test]
 fn reinhard_lab_green() {
-    let p = ReinhardParams { space: ColourSpace::Lab };
-    check_golden("reinhard-lab-green", &Method::Reinhard(p), Some("ref-green.png"));
+    let p = ReinhardParams {
+        space: ColourSpace::Lab,
+    };
+    check_golden(
+        "reinhard-lab-green",
+        &Method::Reinhard(p),
+        Some("ref-green.png"),
+    );
 }

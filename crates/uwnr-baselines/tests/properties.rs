@@ -5,9 +5,9 @@
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use uwnr_baselines::{
-    BaselineError, ColourSpace, GivenCoefficients, JERLOV_TYPES, JerlovParams, Method, Range, ReferenceCoefficients,
-    ReinhardParams, RenderInput, SampledCoefficients, SeathruCoefficients, SeathruParams, UisaParams, WaterType,
-    render,
+    BaselineError, ColourSpace, GivenCoefficients, JERLOV_TYPES, JerlovParams, Method, Range,
+    ReferenceCoefficients, ReinhardParams, RenderInput, SampledCoefficients, SeathruCoefficients,
+    SeathruParams, UisaParams, WaterType, render,
 };
 use uwnr_core::Image;
 
@@ -22,7 +22,11 @@ fn random_image(rng: &mut ChaCha8Rng, w: usize, h: usize, c: usize) -> Image {
 /// A smooth random underwater-looking reference: a tinted gradient plus noise.
 fn random_reference(rng: &mut ChaCha8Rng) -> Image {
     let (w, h) = (rng.random_range(8..80), rng.random_range(8..80));
-    let tint: [f32; 3] = [rng.random_range(0.0..0.5), rng.random_range(0.2..1.0), rng.random_range(0.2..1.0)];
+    let tint: [f32; 3] = [
+        rng.random_range(0.0..0.5),
+        rng.random_range(0.2..1.0),
+        rng.random_range(0.2..1.0),
+    ];
     let mut data = vec![0.0f32; 3 * w * h];
     for c in 0..3 {
         for y in 0..h {
@@ -60,7 +64,9 @@ fn all_methods() -> Vec<Method> {
             ..SeathruParams::default()
         }),
         Method::Reinhard(ReinhardParams::default()),
-        Method::Reinhard(ReinhardParams { space: ColourSpace::Lab }),
+        Method::Reinhard(ReinhardParams {
+            space: ColourSpace::Lab,
+        }),
     ]
 }
 
@@ -196,7 +202,8 @@ fn farther_pixels_are_closer_to_the_background() {
     // backscatter, |I − B| = |J − B|·t must shrink with depth.
     let w = 16;
     let clean = Image::filled(w, 1, 3, 0.5);
-    let depth = Image::from_planar(w, 1, 1, (0..w).map(|x| x as f32 / (w - 1) as f32).collect()).unwrap();
+    let depth =
+        Image::from_planar(w, 1, 1, (0..w).map(|x| x as f32 / (w - 1) as f32).collect()).unwrap();
     let reference = case(3).reference;
     let input = RenderInput {
         clean: &clean,
@@ -232,8 +239,16 @@ fn farther_pixels_are_closer_to_the_background() {
             let b = out.params[key][c].as_f64().unwrap() as f32;
             let p = out.image.plane(c);
             let dist: Vec<f32> = p.iter().map(|v| (v - b).abs()).collect();
-            assert!(dist.windows(2).all(|d| d[1] <= d[0] + 1e-5), "{} channel {c}: {p:?}", m.name());
-            assert!(dist[w - 1] < dist[0] || dist[0] < 1e-6, "{} channel {c}: {p:?}", m.name());
+            assert!(
+                dist.windows(2).all(|d| d[1] <= d[0] + 1e-5),
+                "{} channel {c}: {p:?}",
+                m.name()
+            );
+            assert!(
+                dist[w - 1] < dist[0] || dist[0] < 1e-6,
+                "{} channel {c}: {p:?}",
+                m.name()
+            );
         }
     }
 }
@@ -278,9 +293,13 @@ fn seathru_sampled_water_stays_on_the_requested_part_of_the_manifold() {
     });
     for seed in 0..20 {
         let out = render(&m, &c.input(), seed).unwrap();
-        let pos = out.params["coefficients"]["jerlov_position"].as_f64().unwrap();
+        let pos = out.params["coefficients"]["jerlov_position"]
+            .as_f64()
+            .unwrap();
         assert!(pos > 7.0 && pos <= 9.0, "{pos}");
-        let name = out.params["coefficients"]["nearest_water_type"].as_str().unwrap();
+        let name = out.params["coefficients"]["nearest_water_type"]
+            .as_str()
+            .unwrap();
         assert!(["5C", "7C", "9C"].contains(&name), "{name}");
     }
 }
@@ -288,10 +307,11 @@ fn seathru_sampled_water_stays_on_the_requested_part_of_the_manifold() {
 #[test]
 fn uisa_reproduces_the_reference_median_transmission() {
     // With a black clean image I_R = B_R·(1 − t_R), so the red transmission can be read back; its
-    // median must be the reference's.
+    // median must be the reference's. An odd pixel count makes the median one pixel (with an even
+    // count, sorting by decreasing transmission picks the other middle depth).
     let mut rng = ChaCha8Rng::seed_from_u64(5);
-    let clean = Image::filled(30, 20, 3, 0.0);
-    let depth = random_image(&mut rng, 30, 20, 1);
+    let clean = Image::filled(31, 21, 3, 0.0);
+    let depth = random_image(&mut rng, 31, 21, 1);
     let reference = random_reference(&mut rng);
     let input = RenderInput {
         clean: &clean,
@@ -303,7 +323,9 @@ fn uisa_reproduces_the_reference_median_transmission() {
     let mut t: Vec<f32> = out.image.plane(0).iter().map(|v| 1.0 - v / b_red).collect();
     t.sort_by(f32::total_cmp);
     let got = t[(t.len() - 1) / 2];
-    let want = out.params["reference_median_transmission"].as_f64().unwrap() as f32;
+    let want = out.params["reference_median_transmission"]
+        .as_f64()
+        .unwrap() as f32;
     assert!((got - want).abs() < 1e-4, "{got} vs {want}");
 }
 
@@ -342,12 +364,24 @@ fn errors_name_the_problem() {
         ..c.input()
     };
     let err = render(&Method::Seathru(SeathruParams::default()), &nan_depth, 0).unwrap_err();
-    assert!(matches!(err, BaselineError::NonFiniteDepth { count: 1 }), "{err}");
+    assert!(
+        matches!(err, BaselineError::NonFiniteDepth { count: 1 }),
+        "{err}"
+    );
     let grey = Image::filled(c.clean.width(), c.clean.height(), 1, 0.5);
     let grey_clean = RenderInput {
         clean: &grey,
         ..c.input()
     };
     let err = render(&Method::Uisa(UisaParams::default()), &grey_clean, 0).unwrap_err();
-    assert!(matches!(err, BaselineError::Channels { what: "clean image", .. }), "{err}");
+    assert!(
+        matches!(
+            err,
+            BaselineError::Channels {
+                what: "clean image",
+                ..
+            }
+        ),
+        "{err}"
+    );
 }

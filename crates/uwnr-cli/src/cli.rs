@@ -22,6 +22,8 @@ pub enum Command {
     Depth(DepthArgs),
     /// Describe the model: parameters, GMac at a size, where the weights came from.
     Info(InfoArgs),
+    /// Train the generator on paired folders (underwater/ + clean/), with exact resume.
+    Train(TrainArgs),
 }
 
 /// How clean images are paired with references when there are several.
@@ -163,6 +165,75 @@ pub struct InfoArgs {
     /// Base width of the architecture when no weights are given.
     #[arg(long, default_value_t = 64)]
     pub base_width: usize,
+}
+
+/// Light-field loss variant.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum LightFieldLossArg {
+    /// The paper's multi-scale Gaussian light-field maps of output and target, L1.
+    Paper,
+    /// The released code's behaviour (blur radius 0): a plain L1.
+    Released,
+}
+
+#[derive(Debug, Args)]
+pub struct TrainArgs {
+    /// Training folders, each with `underwater/` + `clean/` (or `raw-890/` + `reference-890/`)
+    /// matched by file name, and optionally `depth/`.
+    #[arg(long, required = true, num_args = 1.., value_name = "DIR")]
+    pub data: Vec<PathBuf>,
+    /// Validation folder (same layout), scored at native resolution (PSNR/SSIM).
+    #[arg(long, value_name = "DIR")]
+    pub val: Option<PathBuf>,
+    /// Run folder: config, logs, curves, checkpoints.
+    #[arg(long, value_name = "RUN_DIR")]
+    pub run: PathBuf,
+    /// Training config (JSON); fields not given keep the paper's defaults.
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
+    /// Continue the run in --run from its last checkpoint (its config.json is used).
+    #[arg(long)]
+    pub resume: bool,
+    /// VGG19 weights (safetensors, torchvision keys `features.N.weight`) for the perceptual loss;
+    /// without them a 1 - SSIM structure term stands in.
+    #[arg(long, value_name = "FILE")]
+    pub vgg19: Option<PathBuf>,
+    /// Compute device.
+    #[arg(long, value_enum, default_value_t = DeviceArg::Flex)]
+    pub device: DeviceArg,
+    /// Override: epochs.
+    #[arg(long)]
+    pub epochs: Option<usize>,
+    /// Override: batch size.
+    #[arg(long)]
+    pub batch_size: Option<usize>,
+    /// Override: crop side (a multiple of 16).
+    #[arg(long)]
+    pub crop: Option<usize>,
+    /// Override: seed.
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Override: learning rate.
+    #[arg(long)]
+    pub lr: Option<f64>,
+    /// Override: base width of the generator (64 = the paper's network).
+    #[arg(long)]
+    pub width: Option<usize>,
+    /// Override: light-field loss variant.
+    #[arg(long, value_enum)]
+    pub light_field_loss: Option<LightFieldLossArg>,
+    /// Override: enable the colour-cast augmentation with its default ranges.
+    #[arg(long)]
+    pub color_cast: bool,
+    /// Override: validate every N epochs.
+    #[arg(long, value_name = "N")]
+    pub val_every: Option<usize>,
+    /// Stop (with a checkpoint) after this many steps in this session.
+    #[arg(long, value_name = "N")]
+    pub max_steps: Option<usize>,
+    /// PSNR reference lines for the validation curve (e.g. baselines), comma-separated.
+    #[arg(long, value_name = "DB,...", value_delimiter = ',')]
+    pub val_refs: Vec<f64>,
 }
 
 /// Parses `WxH` (e.g. `640x480`).

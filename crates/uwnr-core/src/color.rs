@@ -19,7 +19,11 @@ pub const XYZ_FROM_RGB: [[f64; 3]; 3] = [
 pub const RGB_FROM_XYZ: [[f64; 3]; 3] = [
     [3.2404813432005266, -1.5371515162713183, -0.4985363261688878],
     [-0.9692549499965682, 1.8759900014898907, 0.04155592655829284],
-    [0.055646639135177166, -0.20404133836651123, 1.0573110696453443],
+    [
+        0.055646639135177166,
+        -0.20404133836651123,
+        1.0573110696453443,
+    ],
 ];
 
 /// CIE epsilon (216/24389 rounded as scikit-image uses it) and the linear-segment slope.
@@ -208,7 +212,10 @@ mod tests {
     fn lab_of_white_black_and_red_match_skimage() {
         // Values from skimage.color.rgb2lab (0.26).
         let w = rgb_to_lab_px([1.0, 1.0, 1.0]);
-        assert!((w[0] - 100.0).abs() < 1e-3 && w[1].abs() < 1e-2 && w[2].abs() < 1e-2, "{w:?}");
+        assert!(
+            (w[0] - 100.0).abs() < 1e-3 && w[1].abs() < 1e-2 && w[2].abs() < 1e-2,
+            "{w:?}"
+        );
         let k = rgb_to_lab_px([0.0, 0.0, 0.0]);
         assert!(k.iter().all(|v| v.abs() < 1e-9), "{k:?}");
         let r = rgb_to_lab_px([1.0, 0.0, 0.0]);

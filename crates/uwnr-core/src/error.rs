@@ -36,7 +36,9 @@ pub enum CoreError {
         max_pixels: u64,
     },
     /// An image's header claims a width or height beyond the configured per-side limit.
-    #[error("{path:?}: image is {width}x{height}, above the limit of {max_dimension} pixels per side")]
+    #[error(
+        "{path:?}: image is {width}x{height}, above the limit of {max_dimension} pixels per side"
+    )]
     DimensionTooLarge {
         path: PathBuf,
         width: u64,

@@ -31,7 +31,12 @@ impl Image {
     }
 
     /// Wraps planar CHW data. Fails when `data.len() != channels * height * width`.
-    pub fn from_planar(width: usize, height: usize, channels: usize, data: Vec<f32>) -> Result<Self> {
+    pub fn from_planar(
+        width: usize,
+        height: usize,
+        channels: usize,
+        data: Vec<f32>,
+    ) -> Result<Self> {
         if data.len() != width * height * channels {
             return Err(CoreError::ShapeMismatch {
                 expected: (channels, height, width),
@@ -47,7 +52,12 @@ impl Image {
     }
 
     /// Builds an image from interleaved HWC data (as decoders produce it).
-    pub fn from_interleaved(width: usize, height: usize, channels: usize, hwc: &[f32]) -> Result<Self> {
+    pub fn from_interleaved(
+        width: usize,
+        height: usize,
+        channels: usize,
+        hwc: &[f32],
+    ) -> Result<Self> {
         if hwc.len() != width * height * channels {
             return Err(CoreError::ShapeMismatch {
                 expected: (height, width, channels),

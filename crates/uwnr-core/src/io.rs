@@ -24,7 +24,9 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 use image::codecs::jpeg::JpegEncoder;
 use image::codecs::png::PngEncoder;
-use image::{DynamicImage, ExtendedColorType, ImageDecoder, ImageEncoder, ImageFormat, ImageReader, Limits};
+use image::{
+    DynamicImage, ExtendedColorType, ImageDecoder, ImageEncoder, ImageFormat, ImageReader, Limits,
+};
 
 use crate::error::{CoreError, Result};
 use crate::image::Image;
@@ -118,7 +120,14 @@ pub fn save_rgb16(path: &Path, img: &Image) -> Result<()> {
         .iter()
         .flat_map(|&v| quantise_u16(v).to_ne_bytes())
         .collect();
-    let encoded = encode(path, ImageFormat::Png, &bytes, w, h, ExtendedColorType::Rgb16)?;
+    let encoded = encode(
+        path,
+        ImageFormat::Png,
+        &bytes,
+        w,
+        h,
+        ExtendedColorType::Rgb16,
+    )?;
     write_atomic(path, |out| out.write_all(&encoded))
 }
 
@@ -175,9 +184,9 @@ pub fn write_atomic(
         path: path.to_path_buf(),
         source,
     };
-    let name = path.file_name().ok_or_else(|| {
-        CoreError::InvalidArgument(format!("{path:?} does not name a file"))
-    })?;
+    let name = path
+        .file_name()
+        .ok_or_else(|| CoreError::InvalidArgument(format!("{path:?} does not name a file")))?;
     let dir = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
@@ -423,14 +432,23 @@ fn to_planar(decoded: &DynamicImage, target: Target) -> Image {
         }
         (target, colour, samples) => {
             let values: Vec<f32> = match samples {
-                Samples::U8(s) => s.iter().map(|&v| f32::from(v) / f32::from(u8::MAX)).collect(),
+                Samples::U8(s) => s
+                    .iter()
+                    .map(|&v| f32::from(v) / f32::from(u8::MAX))
+                    .collect(),
                 Samples::U16(s) => s
                     .iter()
                     .map(|&v| f32::from(v) / f32::from(u16::MAX))
                     .collect(),
                 Samples::F32(s) => s
                     .iter()
-                    .map(|&v| if v.is_finite() { v.clamp(0.0, 1.0) } else { 0.0 })
+                    .map(|&v| {
+                        if v.is_finite() {
+                            v.clamp(0.0, 1.0)
+                        } else {
+                            0.0
+                        }
+                    })
                     .collect(),
             };
             let out_channels = if target == Target::Rgb { 3 } else { 1 };

@@ -2,9 +2,12 @@
 //! light-field map, the dark channel and depth-map handling. No ML framework lives here.
 
 pub mod color;
+pub mod dark_channel;
 pub mod error;
+pub mod gaussian;
 pub mod image;
 pub mod io;
+pub mod lightfield;
 pub mod resize;
 
 pub use error::{CoreError, Result};

@@ -8,7 +8,9 @@
 //! - [`pil_resize_bilinear_u8`]: Pillow's `Image.resize((w, h), BILINEAR)` on 8-bit images
 //!   (`libImaging/Resample.c`: `precompute_coeffs`, `normalize_coeffs_8bpc` with
 //!   `PRECISION_BITS = 32 - 8 - 2`, horizontal pass then vertical pass, each rounded to u8).
-//!   torchvision's `Resize` on a PIL image calls exactly this.
+//!   torchvision's `Resize` on a PIL image calls exactly this. Checked against Pillow 12.3;
+//!   Pillow 13 runs the vertical pass first for some size combinations (one side growing, the
+//!   other shrinking), which moves some pixels by one code value.
 //! - [`cv_resize_linear_u8`] and [`cv_resize_linear_scale_u8`]: OpenCV 4.x
 //!   `cv2.resize(img, dsize=(w, h))` / `cv2.resize(img, None, fx=.., fy=..)` with `INTER_LINEAR`
 //!   on 8-bit images (`modules/imgproc/src/resize.cpp`: pixel-centre mapping
@@ -397,7 +399,10 @@ fn cv_linear_position(d: usize, scale: f64, size: usize) -> (usize, f32) {
 /// The two 11-bit weights `saturate_cast<short>((1 - f) * 2048)`, `saturate_cast<short>(f * 2048)`.
 fn cv_weights(f: f32) -> [i32; 2] {
     let scale = CV_COEF_SCALE as f32;
-    [cv_saturate_i16((1.0 - f) * scale), cv_saturate_i16(f * scale)]
+    [
+        cv_saturate_i16((1.0 - f) * scale),
+        cv_saturate_i16(f * scale),
+    ]
 }
 
 /// OpenCV's `resizeAreaFast_` for an exact factor of 2 on 8-bit data: `(a + b + c + d + 2) >> 2`

@@ -37,7 +37,9 @@ pub enum DepthError {
     #[error("clean image {clean:?} has no file name to match a depth map by")]
     NoStem { clean: PathBuf },
     /// No map in the directory has the clean image's stem.
-    #[error("no depth map for clean image {clean:?}: expected an image named {stem:?}.<ext> in {dir:?}")]
+    #[error(
+        "no depth map for clean image {clean:?}: expected an image named {stem:?}.<ext> in {dir:?}"
+    )]
     MissingMap {
         clean: PathBuf,
         dir: PathBuf,

@@ -19,7 +19,7 @@
 //! - [`DepthSource::Onnx`]: a monocular depth network the user brings (MiDaS, DPT, Depth
 //!   Anything...), run with tract, see [`onnx`].
 //!
-//! ```no_run
+//! ```
 //! use uwnr_depth::DepthSource;
 //! # fn main() -> Result<(), uwnr_depth::DepthError> {
 //! let clean = uwnr_core::Image::filled(64, 48, 3, 0.5);

@@ -40,7 +40,12 @@ pub(crate) struct MapSource {
 
 impl MapSource {
     /// Decodes the single map, or lists and indexes the directory.
-    pub(crate) fn new(path: &Path, invert: bool, normalize: bool, limits: DecodeLimits) -> Result<Self> {
+    pub(crate) fn new(
+        path: &Path,
+        invert: bool,
+        normalize: bool,
+        limits: DecodeLimits,
+    ) -> Result<Self> {
         let store = if path.is_dir() {
             Store::Directory {
                 dir: path.to_path_buf(),
@@ -66,7 +71,11 @@ impl MapSource {
 
     /// The map for `clean` (found by `clean_path`'s stem when the source is a directory), at
     /// the clean image's size, with notes on what was done to it.
-    pub(crate) fn depth_for(&self, clean: &Image, clean_path: Option<&Path>) -> Result<(Image, Vec<String>)> {
+    pub(crate) fn depth_for(
+        &self,
+        clean: &Image,
+        clean_path: Option<&Path>,
+    ) -> Result<(Image, Vec<String>)> {
         check_not_empty(clean)?;
         let (map_path, loaded);
         let map = match &self.store {
@@ -75,7 +84,8 @@ impl MapSource {
                 map
             }
             Store::Directory { dir, by_stem } => {
-                let clean_path = clean_path.ok_or_else(|| DepthError::NeedsCleanPath { dir: dir.clone() })?;
+                let clean_path =
+                    clean_path.ok_or_else(|| DepthError::NeedsCleanPath { dir: dir.clone() })?;
                 map_path = find_partner(dir, by_stem, clean_path)?;
                 loaded = load_gray(map_path, &self.limits)?;
                 &loaded

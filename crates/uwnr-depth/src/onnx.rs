@@ -27,6 +27,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use tract_onnx::prelude::*;
+use tract_onnx::tract_hir::infer::{Factoid, ShapeFactoid};
 use uwnr_core::Image;
 use uwnr_core::resize::resize_bilinear;
 
@@ -70,7 +71,11 @@ pub(crate) struct OnnxDepth {
 
 impl OnnxDepth {
     /// Loads, checks and optimises the model.
-    pub(crate) fn new(path: &Path, invert: bool, input_size: Option<(usize, usize)>) -> Result<Self> {
+    pub(crate) fn new(
+        path: &Path,
+        invert: bool,
+        input_size: Option<(usize, usize)>,
+    ) -> Result<Self> {
         if !path.is_file() {
             return Err(DepthError::ModelNotFound {
                 path: path.to_path_buf(),
@@ -93,7 +98,9 @@ impl OnnxDepth {
         let model = tract_onnx::onnx().model_for_path(path).map_err(load_err)?;
         let inputs = model.input_outlets().map_err(load_err)?.len();
         if inputs != 1 {
-            return Err(input_err(format!("the model has {inputs} inputs; expected one image")));
+            return Err(input_err(format!(
+                "the model has {inputs} inputs; expected one image"
+            )));
         }
         let fact = model.input_fact(0).map_err(load_err)?;
         let fixed = fixed_spatial_size(&fact.shape).map_err(input_err)?;
@@ -108,19 +115,37 @@ impl OnnxDepth {
             InputSize::PerImage => {
                 let h = model.sym("uwnr_height");
                 let w = model.sym("uwnr_width");
-                f32::fact(dims![1, 3, h, w])
+                f32::fact([TDim::from(1), TDim::from(3), h.into(), w.into()])
             }
         };
         let model = model
             .with_input_fact(0, input_fact.into())
             .map_err(load_err)?
             .into_optimized()
-            .map_err(load_err)?;
+            .map_err(|e| DepthError::ModelLoad {
+                path: path.to_path_buf(),
+                // Some graphs only optimise once their height and width are known.
+                reason: match input {
+                    InputSize::PerImage => {
+                        format!("{e:#} (its input size is dynamic: try a fixed input size)")
+                    }
+                    _ => format!("{e:#}"),
+                },
+            })?;
         let output = model.output_fact(0).map_err(load_err)?;
         if !output_dims_ok(output.shape.dims().iter().map(TDim::as_i64)) {
             return Err(DepthError::UnexpectedOutputShape {
                 path: path.to_path_buf(),
-                shape: format!("{:?}", output.shape),
+                shape: format!(
+                    "[{}]",
+                    output
+                        .shape
+                        .dims()
+                        .iter()
+                        .map(ToString::to_string)
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
             });
         }
         let plan = model.into_runnable().map_err(load_err)?;
@@ -153,7 +178,8 @@ impl OnnxDepth {
         }
 
         let input = imagenet_input(clean, in_w, in_h)?;
-        let tensor = Tensor::from_shape(&[1, 3, in_h, in_w], &input).map_err(|e| self.inference_err(e))?;
+        let tensor =
+            Tensor::from_shape(&[1, 3, in_h, in_w], &input).map_err(|e| self.inference_err(e))?;
         let outputs = self
             .plan
             .run(tvec![tensor.into()])
@@ -221,13 +247,16 @@ impl OnnxDepth {
 
 /// The fixed `(width, height)` of an input shape `[N, 3, H, W]`, or `None` when height or width
 /// is dynamic. Fails on a shape that cannot be an RGB image batch.
-fn fixed_spatial_size(shape: &tract_onnx::tract_hir::infer::ShapeFactoid) -> std::result::Result<Option<(usize, usize)>, String> {
+fn fixed_spatial_size(shape: &ShapeFactoid) -> std::result::Result<Option<(usize, usize)>, String> {
     let dims: Vec<Option<i64>> = shape
         .dims()
         .map(|d| d.concretize().and_then(|d| d.as_i64()))
         .collect();
     if !shape.is_open() && dims.len() != 4 {
-        return Err(format!("input of rank {}; expected [1, 3, H, W]", dims.len()));
+        return Err(format!(
+            "input of rank {}; expected [1, 3, H, W]",
+            dims.len()
+        ));
     }
     let dim = |i: usize| dims.get(i).copied().flatten();
     if let Some(n) = dim(0).filter(|&n| n != 1) {

@@ -11,7 +11,9 @@ pub type Result<T> = std::result::Result<T, MetricsError>;
 #[derive(Debug, thiserror::Error)]
 pub enum MetricsError {
     /// Two images that must have the same shape do not (`(channels, height, width)`).
-    #[error("image shapes differ: {pred:?} (prediction) vs {target:?} (target), as (channels, height, width)")]
+    #[error(
+        "image shapes differ: {pred:?} (prediction) vs {target:?} (target), as (channels, height, width)"
+    )]
     ShapeMismatch {
         pred: (usize, usize, usize),
         target: (usize, usize, usize),

@@ -29,13 +29,13 @@ impl PlaneF64 {
 
     /// Elementwise map of two planes of the same size.
     pub fn zip_map(&self, other: &Self, f: impl Fn(f64, f64) -> f64 + Sync) -> Self {
-        let data = self.data.iter().zip(&other.data).map(|(&a, &b)| f(a, b)).collect();
+        let data = self
+            .data
+            .iter()
+            .zip(&other.data)
+            .map(|(&a, &b)| f(a, b))
+            .collect();
         Self::new(self.width, self.height, data)
-    }
-
-    /// Elementwise map.
-    pub fn map(&self, f: impl Fn(f64) -> f64) -> Self {
-        Self::new(self.width, self.height, self.data.iter().map(|&a| f(a)).collect())
     }
 }
 

@@ -9,14 +9,20 @@
 //! symmetric eigendecompositions and clamp the tiny negative eigenvalues rounding leaves to 0:
 //! - from statistics ([`frechet_distance_from_stats`]): `S1 = V L V^T`, then the eigenvalues of
 //!   `L^(1/2) V^T S2 V L^(1/2)` (a d x d problem);
-//! - from features ([`frechet_distance`]) with fewer samples than dimensions: with centred
-//!   data `X1`, `X2`, `S1 S2 = X1^T (X1 X2^T) X2 / ((n1-1)(n2-1))`, whose non-zero eigenvalues
-//!   are those of `K K^T / ((n1-1)(n2-1))`, `K = X1 X2^T` (an n1 x n2 matrix): the trace is the
-//!   nuclear norm of K over `sqrt((n1-1)(n2-1))`. This is exact for rank-deficient covariances
-//!   (n < d, the usual case with small evaluation sets), where sqrtm of a singular product
-//!   loses digits.
+//! - from features ([`frechet_distance`]) with no more samples than dimensions (plus one):
+//!   with centred data `X1`, `X2`, `S1 S2 = X1^T (X1 X2^T) X2 / ((n1-1)(n2-1))`, whose non-zero
+//!   eigenvalues are those of `K K^T / ((n1-1)(n2-1))`, `K = X1 X2^T`: the trace is the nuclear
+//!   norm of K over `sqrt((n1-1)(n2-1))`. Each `Xc` is first reduced to the `(n-1) x d` matrix
+//!   `Z` with `Z^T Z = Xc^T Xc` (a Householder reflection taking the all-ones direction, which
+//!   centring annihilates, to the last row, which is dropped), so `K K^T` has no structural
+//!   zero eigenvalue. This is exact for rank-deficient covariances (n < d, the usual case
+//!   with small evaluation sets), where sqrtm of a singular product loses digits.
 //!
-//! Rounding can leave a distance of `-1e-12` between identical sets; results are clamped at 0.
+//! The square root amplifies rounding near zero: an eigenvalue that should be 0 but comes out
+//! as `1e-16 lambda_max` adds `1e-8 sqrt(lambda_max)`. Each route is used where its matrix has
+//! no structural zero eigenvalue; statistics of rank-deficient sets passed to
+//! [`frechet_distance_from_stats`] are accurate to about 1e-8 relative. Rounding can leave a
+//! distance of `-1e-12` between identical sets; results are clamped at 0.
 
 use serde::{Deserialize, Serialize};
 
@@ -71,7 +77,11 @@ impl FeatureStats {
 
 /// Checks that `set` has at least two vectors, all of length `expected` (or of the first's).
 /// Returns the dimension.
-pub(crate) fn check_set(what: &'static str, set: &[Vec<f64>], expected: Option<usize>) -> Result<usize> {
+pub(crate) fn check_set(
+    what: &'static str,
+    set: &[Vec<f64>],
+    expected: Option<usize>,
+) -> Result<usize> {
     if set.len() < 2 {
         return Err(MetricsError::TooFewSamples {
             what,
@@ -94,7 +104,9 @@ pub(crate) fn check_set(what: &'static str, set: &[Vec<f64>], expected: Option<u
         }
     }
     if d == 0 {
-        return Err(MetricsError::InvalidArgument(format!("{what}: empty feature vectors")));
+        return Err(MetricsError::InvalidArgument(format!(
+            "{what}: empty feature vectors"
+        )));
     }
     Ok(d)
 }
@@ -116,6 +128,33 @@ fn centre(set: &[Vec<f64>], d: usize) -> (Vec<f64>, Vec<f64>) {
         .flat_map(|v| v.iter().zip(&mean).map(|(x, m)| x - m))
         .collect();
     (mean, centred)
+}
+
+/// For centred `xc` (n x d, n >= 2, columns summing to 0): the first n - 1 rows of `H xc`, with
+/// `H` the Householder reflection swapping `1 / sqrt(n)` (all ones) and the last unit vector.
+/// The dropped last row is `1^T xc / sqrt(n) = 0`, so the result `Z` has `Z^T Z = xc^T xc`.
+fn drop_centring_direction(xc: &[f64], n: usize, d: usize) -> Vec<f64> {
+    let u = 1.0 / (n as f64).sqrt();
+    let v = |i: usize| if i == n - 1 { u - 1.0 } else { u };
+    let vtv = 2.0 - 2.0 * u;
+    let mut vtx = vec![0.0; d];
+    for i in 0..n {
+        let vi = v(i);
+        for (acc, x) in vtx.iter_mut().zip(&xc[i * d..(i + 1) * d]) {
+            *acc += vi * x;
+        }
+    }
+    let coef = 2.0 * u / vtv;
+    let mut z = Vec::with_capacity((n - 1) * d);
+    for i in 0..n - 1 {
+        z.extend(
+            xc[i * d..(i + 1) * d]
+                .iter()
+                .zip(&vtx)
+                .map(|(x, w)| x - coef * w),
+        );
+    }
+    z
 }
 
 /// `X^T X` for row-major `X` of n x d.
@@ -148,29 +187,40 @@ fn squared_distance(a: &[f64], b: &[f64]) -> f64 {
 pub fn frechet_distance(a: &[Vec<f64>], b: &[Vec<f64>]) -> Result<f64> {
     let d = check_set("first feature set", a, None)?;
     check_set("second feature set", b, Some(d))?;
-    if a.len().min(b.len()) <= d {
+    if a.len().min(b.len()) <= d + 1 {
         Ok(frechet_distance_sample_space(a, b, d)?.max(0.0))
     } else {
-        frechet_distance_from_stats(&FeatureStats::from_features(a)?, &FeatureStats::from_features(b)?)
+        frechet_distance_from_stats(
+            &FeatureStats::from_features(a)?,
+            &FeatureStats::from_features(b)?,
+        )
     }
 }
 
-/// The sample-space route (see the module docs); valid for any n, cheapest when n <= d.
-pub(crate) fn frechet_distance_sample_space(a: &[Vec<f64>], b: &[Vec<f64>], d: usize) -> Result<f64> {
+/// The sample-space route (see the module docs); exact for any n, accurate when n <= d + 1.
+pub(crate) fn frechet_distance_sample_space(
+    a: &[Vec<f64>],
+    b: &[Vec<f64>],
+    d: usize,
+) -> Result<f64> {
     let (n1, n2) = (a.len(), b.len());
     let (mu1, x1) = centre(a, d);
     let (mu2, x2) = centre(b, d);
     let tr1 = x1.iter().map(|v| v * v).sum::<f64>() / (n1 - 1) as f64;
     let tr2 = x2.iter().map(|v| v * v).sum::<f64>() / (n2 - 1) as f64;
-    let k = mul_abt(&x1, n1, &x2, n2, d); // n1 x n2
-    let gram = if n1 <= n2 {
-        mul_abt(&k, n1, &k, n1, n2) // K K^T, n1 x n1
+    let (r1, r2) = (n1 - 1, n2 - 1);
+    let z1 = drop_centring_direction(&x1, n1, d); // r1 x d
+    let z2 = drop_centring_direction(&x2, n2, d); // r2 x d
+    let k = mul_abt(&z1, r1, &z2, r2, d); // r1 x r2
+    let gram = if r1 <= r2 {
+        mul_abt(&k, r1, &k, r1, r2) // K K^T, r1 x r1
     } else {
-        let kt = transpose(&k, n1, n2);
-        mul_abt(&kt, n2, &kt, n2, n1) // K^T K, n2 x n2
+        let kt = transpose(&k, r1, r2);
+        mul_abt(&kt, r2, &kt, r2, r1) // K^T K, r2 x r2
     };
-    let m = n1.min(n2);
-    let tr_sqrt = sum_sqrt_clamped(&sym_eigenvalues(&symmetrised(gram, m), m)?) / (((n1 - 1) * (n2 - 1)) as f64).sqrt();
+    let m = r1.min(r2);
+    let tr_sqrt = sum_sqrt_clamped(&sym_eigenvalues(&symmetrised(gram, m), m)?)
+        / (((n1 - 1) * (n2 - 1)) as f64).sqrt();
     Ok(squared_distance(&mu1, &mu2) + tr1 + tr2 - 2.0 * tr_sqrt)
 }
 
@@ -243,7 +293,12 @@ mod tests {
 
     #[test]
     fn shifting_a_set_adds_the_squared_shift() {
-        let a = set(&[&[0.0, 1.0, 2.0], &[1.0, 0.5, 0.0], &[2.0, 2.0, 1.0], &[0.5, 0.0, 3.0]]);
+        let a = set(&[
+            &[0.0, 1.0, 2.0],
+            &[1.0, 0.5, 0.0],
+            &[2.0, 2.0, 1.0],
+            &[0.5, 0.0, 3.0],
+        ]);
         let shift = [1.0, -2.0, 0.5];
         let b: Vec<Vec<f64>> = a
             .iter()
@@ -255,16 +310,45 @@ mod tests {
     }
 
     #[test]
-    fn both_routes_agree_when_n_exceeds_d() {
-        let a: Vec<Vec<f64>> = (0..9)
-            .map(|i| (0..3).map(|j| ((i * 7 + j * 3) % 5) as f64 + 0.1 * j as f64).collect())
+    fn both_routes_agree_where_both_are_well_posed() {
+        // n1 - 1 = d: S1 has full rank (stats route) and K K^T has no structural zero.
+        let a: Vec<Vec<f64>> = (0..4)
+            .map(|i| {
+                (0..3)
+                    .map(|j| ((i * 7 + j * 3) % 5) as f64 + 0.1 * (i * j) as f64)
+                    .collect()
+            })
             .collect();
         let b: Vec<Vec<f64>> = (0..6)
-            .map(|i| (0..3).map(|j| ((i * 5 + j * 2) % 7) as f64 * 0.5).collect())
+            .map(|i| {
+                (0..3)
+                    .map(|j| ((i * 5 + j * 2) % 7) as f64 * 0.5 + 0.05 * (i * i) as f64)
+                    .collect()
+            })
             .collect();
-        let stats = frechet_distance(&a, &b).unwrap();
+        let stats = frechet_distance_from_stats(
+            &FeatureStats::from_features(&a).unwrap(),
+            &FeatureStats::from_features(&b).unwrap(),
+        )
+        .unwrap();
         let sample = frechet_distance_sample_space(&a, &b, 3).unwrap();
-        assert!((stats - sample).abs() < 1e-10, "{stats} vs {sample}");
+        assert!(
+            (stats - sample).abs() < 1e-12 * stats,
+            "{stats} vs {sample}"
+        );
+    }
+
+    #[test]
+    fn householder_reduction_keeps_the_scatter_matrix() {
+        let set: Vec<Vec<f64>> = (0..5)
+            .map(|i| vec![i as f64, (i * i) as f64 * 0.3])
+            .collect();
+        let (_, xc) = centre(&set, 2);
+        let z = drop_centring_direction(&xc, 5, 2);
+        let (s_x, s_z) = (mul_abt_transposed(&xc, 5, 2), mul_abt_transposed(&z, 4, 2));
+        for (p, q) in s_x.iter().zip(&s_z) {
+            assert!((p - q).abs() < 1e-12, "{s_x:?} vs {s_z:?}");
+        }
     }
 
     #[test]
@@ -273,11 +357,17 @@ mod tests {
         let two = set(&[&[1.0, 2.0], &[0.0, 1.0]]);
         let ragged = set(&[&[1.0, 2.0], &[0.0]]);
         let nan = set(&[&[1.0, f64::NAN], &[0.0, 1.0]]);
-        assert!(matches!(frechet_distance(&one, &two), Err(MetricsError::TooFewSamples { .. })));
+        assert!(matches!(
+            frechet_distance(&one, &two),
+            Err(MetricsError::TooFewSamples { .. })
+        ));
         assert!(matches!(
             frechet_distance(&two, &ragged),
             Err(MetricsError::FeatureDimMismatch { .. })
         ));
-        assert!(matches!(frechet_distance(&two, &nan), Err(MetricsError::NonFinite { .. })));
+        assert!(matches!(
+            frechet_distance(&two, &nan),
+            Err(MetricsError::NonFinite { .. })
+        ));
     }
 }

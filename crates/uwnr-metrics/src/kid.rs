@@ -37,8 +37,21 @@ fn poly3(gram: f64, d: usize) -> f64 {
 ///
 /// Both sets need at least 2 vectors of the same dimension; `subsets` and `subset_size` at
 /// least 1 and 2.
-pub fn kid(a: &[Vec<f64>], b: &[Vec<f64>], subsets: usize, subset_size: usize, seed: u64) -> Result<(f64, f64)> {
-    kid_with_budget(a, b, subsets, subset_size, seed, KID_FULL_KERNEL_MAX_ENTRIES)
+pub fn kid(
+    a: &[Vec<f64>],
+    b: &[Vec<f64>],
+    subsets: usize,
+    subset_size: usize,
+    seed: u64,
+) -> Result<(f64, f64)> {
+    kid_with_budget(
+        a,
+        b,
+        subsets,
+        subset_size,
+        seed,
+        KID_FULL_KERNEL_MAX_ENTRIES,
+    )
 }
 
 pub(crate) fn kid_with_budget(
@@ -99,7 +112,9 @@ pub(crate) fn kid_with_budget(
             }
             None => {
                 let pick = |f: &[f64], idx: &[usize]| -> Vec<f64> {
-                    idx.iter().flat_map(|&i| f[i * d..(i + 1) * d].iter().copied()).collect()
+                    idx.iter()
+                        .flat_map(|&i| f[i * d..(i + 1) * d].iter().copied())
+                        .collect()
                 };
                 let (sa, sb) = (pick(&fa, &ia), pick(&fb, &ib));
                 let off_diagonal = |g: Vec<f64>| -> f64 {
@@ -109,7 +124,10 @@ pub(crate) fn kid_with_budget(
                         .map(|(_, &v)| poly3(v, d))
                         .sum()
                 };
-                let cross: f64 = mul_abt(&sa, m, &sb, m, d).iter().map(|&v| poly3(v, d)).sum();
+                let cross: f64 = mul_abt(&sa, m, &sb, m, d)
+                    .iter()
+                    .map(|&v| poly3(v, d))
+                    .sum();
                 unbiased_mmd2(
                     off_diagonal(mul_abt(&sa, m, &sa, m, d)),
                     off_diagonal(mul_abt(&sb, m, &sb, m, d)),
@@ -140,7 +158,11 @@ mod tests {
             .map(|i| (0..4).map(|j| ((i * 3 + j * 5) % 7) as f64 / 7.0).collect())
             .collect();
         let b = (0..15)
-            .map(|i| (0..4).map(|j| ((i * 2 + j * 3) % 5) as f64 / 4.0 - 0.2).collect())
+            .map(|i| {
+                (0..4)
+                    .map(|j| ((i * 2 + j * 3) % 5) as f64 / 4.0 - 0.2)
+                    .collect()
+            })
             .collect();
         (a, b)
     }
@@ -151,8 +173,14 @@ mod tests {
         let full = kid_with_budget(&a, &b, 20, 6, 7, usize::MAX).unwrap();
         let per_subset = kid_with_budget(&a, &b, 20, 6, 7, 0).unwrap();
         assert!((full.0 - per_subset.0).abs() < 1e-12 && (full.1 - per_subset.1).abs() < 1e-12);
-        assert_eq!(kid(&a, &b, 20, 6, 7).unwrap(), kid(&a, &b, 20, 6, 7).unwrap());
-        assert_ne!(kid(&a, &b, 20, 6, 7).unwrap(), kid(&a, &b, 20, 6, 8).unwrap());
+        assert_eq!(
+            kid(&a, &b, 20, 6, 7).unwrap(),
+            kid(&a, &b, 20, 6, 7).unwrap()
+        );
+        assert_ne!(
+            kid(&a, &b, 20, 6, 7).unwrap(),
+            kid(&a, &b, 20, 6, 8).unwrap()
+        );
         assert!(full.1 > 0.0);
     }
 
@@ -162,12 +190,19 @@ mod tests {
         // Same set on both sides, each subset the whole set: within and cross sums share all
         // off-diagonal terms, leaving -2 / m^2 sum_i k(x_i, x_i) + ... exactly computable.
         let (mean, std) = kid(&a, &a, 3, 100, 1).unwrap();
-        assert_eq!(std, 0.0);
+        // Subsets are permutations of the whole set: equal up to summation order.
+        assert!(std < 1e-12, "{std}");
         let m = a.len() as f64;
-        let diag: f64 = a.iter().map(|x| poly3(x.iter().map(|v| v * v).sum(), 4)).sum();
+        let diag: f64 = a
+            .iter()
+            .map(|x| poly3(x.iter().map(|v| v * v).sum(), 4))
+            .sum();
         let all: f64 = a
             .iter()
-            .flat_map(|x| a.iter().map(move |y| poly3(x.iter().zip(y).map(|(p, q)| p * q).sum(), 4)))
+            .flat_map(|x| {
+                a.iter()
+                    .map(move |y| poly3(x.iter().zip(y).map(|(p, q)| p * q).sum(), 4))
+            })
             .sum();
         let want = 2.0 * (all - diag) / (m * (m - 1.0)) - 2.0 * all / (m * m);
         assert!((mean - want).abs() < 1e-12, "{mean} vs {want}");

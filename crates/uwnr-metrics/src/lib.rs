@@ -12,7 +12,7 @@
 //!
 //! Features for the two distances ([`FeatureExtractor`]): [`OnnxInception`] (a user's
 //! InceptionV3 ONNX, pool3, pytorch-fid preprocessing: FD on it is **FID**) and
-//! [`ColorTextureFeatures`] (built in, no weights, 142-d: FD on it is **FD-ct**, not FID).
+//! [`ColorTextureFeatures`] (built in, no weights, 155-d: FD on it is **FD-ct**, not FID).
 //!
 //! Conventions:
 //! - images are [`uwnr_core::Image`]: planar RGB f32 in [0, 1], widened to f64 for all
@@ -43,8 +43,9 @@ mod uiqm;
 
 pub use error::{MetricsError, Result};
 pub use features::{
-    COLOR_TEXTURE_DIM, ColorTextureFeatures, FeatureExtractor, INCEPTION_INPUT_SIDE, INCEPTION_POOL3_DIM,
-    InceptionInputRange, OnnxInception, OnnxInceptionOptions, WORKING_SIZE, extract_all,
+    COLOR_TEXTURE_DIM, COLOR_TEXTURE_WORKING_SIZE, ColorTextureFeatures, FeatureExtractor,
+    INCEPTION_INPUT_SIDE, INCEPTION_POOL3_DIM, InceptionInputRange, OnnxInception,
+    OnnxInceptionOptions, extract_all,
 };
 pub use frechet::{FeatureStats, frechet_distance, frechet_distance_from_stats};
 pub use kid::{KID_SUBSET_SIZE, KID_SUBSETS, kid};

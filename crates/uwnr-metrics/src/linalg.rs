@@ -91,7 +91,6 @@ fn sym_eigen(a: &[f64], n: usize, want_vectors: bool) -> Result<(Vec<f64>, Vec<f
 
 /// Householder reduction to tridiagonal form (diagonal `d`, sub-diagonal `e[1..]`), with the
 /// orthogonal transformation accumulated in `w` (as V^T) when `want_vectors`.
-#[allow(clippy::many_single_char_names)]
 fn tred2(w: &mut [f64], d: &mut [f64], e: &mut [f64], n: usize, want_vectors: bool) {
     let ix = |r: usize, c: usize| c * n + r; // JAMA V[r][c]
     for j in 0..n {
@@ -212,7 +211,6 @@ fn tred2(w: &mut [f64], d: &mut [f64], e: &mut [f64], n: usize, want_vectors: bo
 
 /// Implicit QL iterations on the tridiagonal `(d, e)`; eigenvalues end in `d`, and the plane
 /// rotations are applied to the rows of `w` when `want_vectors`.
-#[allow(clippy::many_single_char_names)]
 fn tql2(w: &mut [f64], d: &mut [f64], e: &mut [f64], n: usize, want_vectors: bool) -> Result<()> {
     for i in 1..n {
         e[i - 1] = e[i];
@@ -314,7 +312,10 @@ mod tests {
             // A v = lambda v
             for r in 0..n {
                 let av = dot(&a[r * n..(r + 1) * n], v);
-                assert!((av - vals[i] * v[r]).abs() < 1e-10 * scale, "residual at {i},{r}");
+                assert!(
+                    (av - vals[i] * v[r]).abs() < 1e-10 * scale,
+                    "residual at {i},{r}"
+                );
             }
             for j in 0..n {
                 let vj = &vecs[j * n..(j + 1) * n];
@@ -351,7 +352,10 @@ mod tests {
         // [[2, 1], [1, 2]] has eigenvalues 1 and 3.
         let mut v = sym_eigenvalues(&[2.0, 1.0, 1.0, 2.0], 2).unwrap();
         v.sort_by(f64::total_cmp);
-        assert!((v[0] - 1.0).abs() < 1e-14 && (v[1] - 3.0).abs() < 1e-14, "{v:?}");
+        assert!(
+            (v[0] - 1.0).abs() < 1e-14 && (v[1] - 3.0).abs() < 1e-14,
+            "{v:?}"
+        );
     }
 
     #[test]

@@ -75,7 +75,9 @@ pub(crate) fn luma_bt601(img: &Image) -> PlaneF64 {
         .zip(g)
         .zip(b)
         .map(|((&r, &g), &b)| {
-            LUMA_BT601[0] * f64::from(r) + LUMA_BT601[1] * f64::from(g) + LUMA_BT601[2] * f64::from(b)
+            LUMA_BT601[0] * f64::from(r)
+                + LUMA_BT601[1] * f64::from(g)
+                + LUMA_BT601[2] * f64::from(b)
         })
         .collect();
     PlaneF64::new(img.width(), img.height(), data)
@@ -113,10 +115,19 @@ mod tests {
     fn rejects_bad_inputs() {
         let a = Image::filled(4, 4, 3, 0.25);
         let b = Image::filled(4, 5, 3, 0.25);
-        assert!(matches!(psnr(&a, &b, 1.0), Err(MetricsError::ShapeMismatch { .. })));
-        assert!(matches!(psnr(&a, &a, 0.0), Err(MetricsError::InvalidDataRange(_))));
+        assert!(matches!(
+            psnr(&a, &b, 1.0),
+            Err(MetricsError::ShapeMismatch { .. })
+        ));
+        assert!(matches!(
+            psnr(&a, &a, 0.0),
+            Err(MetricsError::InvalidDataRange(_))
+        ));
         let g = Image::filled(4, 4, 1, 0.25);
-        assert!(matches!(psnr_gray(&g, &g, 1.0), Err(MetricsError::NotRgb { .. })));
+        assert!(matches!(
+            psnr_gray(&g, &g, 1.0),
+            Err(MetricsError::NotRgb { .. })
+        ));
         // Plain PSNR works on any number of channels.
         assert_eq!(psnr(&g, &g, 1.0).unwrap(), f64::INFINITY);
     }

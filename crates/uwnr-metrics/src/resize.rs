@@ -136,12 +136,17 @@ mod tests {
 
     #[test]
     fn area_resize_averages_blocks_and_preserves_the_mean() {
-        let img = Image::from_planar(4, 2, 1, vec![0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0]).unwrap();
+        let img =
+            Image::from_planar(4, 2, 1, vec![0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0]).unwrap();
         let r = resize_area(&img, 2, 1);
         assert_eq!(r[0], vec![2.5, 4.5]);
         // A non-integer factor: 3 -> 2, each output covers 1.5 inputs.
         let img = Image::from_planar(3, 1, 1, vec![0.0, 3.0, 6.0]).unwrap();
         let r = resize_area(&img, 2, 1);
-        assert!((r[0][0] - 1.0).abs() < 1e-12 && (r[0][1] - 5.0).abs() < 1e-12, "{:?}", r[0]);
+        assert!(
+            (r[0][0] - 1.0).abs() < 1e-12 && (r[0][1] - 5.0).abs() < 1e-12,
+            "{:?}",
+            r[0]
+        );
     }
 }

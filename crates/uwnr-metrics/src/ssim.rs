@@ -92,7 +92,9 @@ impl SsimOptions {
     #[must_use]
     pub fn win_size(&self) -> usize {
         match self.window {
-            SsimWindow::Gaussian { sigma } => 2 * ((SSIM_GAUSSIAN_TRUNCATE * sigma + 0.5) as usize) + 1,
+            SsimWindow::Gaussian { sigma } => {
+                2 * ((SSIM_GAUSSIAN_TRUNCATE * sigma + 0.5) as usize) + 1
+            }
             SsimWindow::Uniform { size } => size,
         }
     }
@@ -145,7 +147,11 @@ pub fn ssim_with(pred: &Image, target: &Image, opts: &SsimOptions) -> Result<f64
         .into_par_iter()
         .map(|c| {
             let x = PlaneF64::new(w, h, pred.plane(c).iter().map(|&v| f64::from(v)).collect());
-            let y = PlaneF64::new(w, h, target.plane(c).iter().map(|&v| f64::from(v)).collect());
+            let y = PlaneF64::new(
+                w,
+                h,
+                target.plane(c).iter().map(|&v| f64::from(v)).collect(),
+            );
             ssim_plane(&x, &y, opts)
         })
         .collect();
@@ -186,7 +192,11 @@ fn ssim_plane(x: &PlaneF64, y: &PlaneF64, opts: &SsimOptions) -> f64 {
     };
     // skimage uses N = win_size^2 for the sample-covariance factor, whatever the weighting.
     let np = (win * win) as f64;
-    let cov_norm = if opts.sample_covariance { np / (np - 1.0) } else { 1.0 };
+    let cov_norm = if opts.sample_covariance {
+        np / (np - 1.0)
+    } else {
+        1.0
+    };
 
     let ux = filter(x);
     let uy = filter(y);

@@ -177,12 +177,16 @@ pub fn uiqm_with(img: &Image, cfg: &UiqmConfig) -> Result<UiqmComponents> {
 fn trimmed_mean(mut v: Vec<f64>) -> f64 {
     v.par_sort_unstable_by(f64::total_cmp);
     let k = v.len();
-    // Same float expressions as the reference: 0.1 * K may land just above an integer.
+    // The same float expressions as the reference, so the cut points agree for every K.
     let t_l = (UICM_ALPHA * k as f64).ceil() as usize;
     let t_r = (UICM_ALPHA * k as f64).floor() as usize;
     let start = (t_l + 1).min(k);
     let end = k - t_r;
-    let sum: f64 = if start < end { v[start..end].iter().sum() } else { 0.0 };
+    let sum: f64 = if start < end {
+        v[start..end].iter().sum()
+    } else {
+        0.0
+    };
     sum / (k - t_l - t_r) as f64
 }
 
@@ -285,9 +289,9 @@ mod tests {
         let v: Vec<f64> = (0..10).map(f64::from).collect();
         let want = (2..9).map(f64::from).sum::<f64>() / 8.0;
         assert_eq!(trimmed_mean(v), want);
-        // K = 30: 0.1 * 30 = 3.0000000000000004, so ceil gives 4 and floor 3.
-        let v: Vec<f64> = (0..30).map(f64::from).collect();
-        let want = (5..27).map(f64::from).sum::<f64>() / (30.0 - 4.0 - 3.0);
+        // K = 25: ceil(2.5) = 3 on the left (plus one), floor(2.5) = 2 on the right.
+        let v: Vec<f64> = (0..25).map(f64::from).collect();
+        let want = (4..23).map(f64::from).sum::<f64>() / (25.0 - 3.0 - 2.0);
         assert_eq!(trimmed_mean(v), want);
     }
 
@@ -338,7 +342,10 @@ mod tests {
     #[test]
     fn rejects_small_and_grey_images() {
         let img = Image::filled(9, 30, 3, 0.5);
-        assert!(matches!(uiqm(&img), Err(MetricsError::TooSmall { min: 10, .. })));
+        assert!(matches!(
+            uiqm(&img),
+            Err(MetricsError::TooSmall { min: 10, .. })
+        ));
         let g = Image::filled(30, 30, 1, 0.5);
         assert!(matches!(uiqm(&g), Err(MetricsError::NotRgb { .. })));
     }

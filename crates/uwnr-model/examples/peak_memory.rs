@@ -24,13 +24,23 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let device = Device::flex();
     device.seed(0);
     let generator = GeneratorConfig::with_base_width(width).init(&device)?;
-    let plane = |c: usize| (0..h).flat_map(move |y| (0..w).map(move |x| ((x * 7 + y * 3 + c * 11) % 256) as f32 / 255.0));
+    let plane = |c: usize| {
+        (0..h)
+            .flat_map(move |y| (0..w).map(move |x| ((x * 7 + y * 3 + c * 11) % 256) as f32 / 255.0))
+    };
     let clean = Image::from_planar(w, h, 3, (0..3).flat_map(plane).collect())?;
     let depth = Image::from_planar(w, h, 1, plane(5).collect())?;
     let lf = Image::from_planar(w, h, 3, (0..3).flat_map(|c| plane(c + 1)).collect())?;
     let before = vm_hwm_kib().unwrap_or(0);
     let t = Instant::now();
-    let out = render(&generator, &clean, &depth, &lf, &RenderOptions::default(), &device)?;
+    let out = render(
+        &generator,
+        &clean,
+        &depth,
+        &lf,
+        &RenderOptions::default(),
+        &device,
+    )?;
     let secs = t.elapsed().as_secs_f64();
     let peak = vm_hwm_kib().unwrap_or(0);
     println!(

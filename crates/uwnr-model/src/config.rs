@@ -157,7 +157,8 @@ pub fn gmacs(config: &GeneratorConfig, height: usize, width: usize) -> f64 {
         width.div_ceil(SIZE_MULTIPLE) * SIZE_MULTIPLE,
     );
     // Kernel MACs of a conv at `pixels` output positions.
-    let conv = |cin: usize, cout: usize, k: usize, pixels: usize| (cin * cout * k * k * pixels) as f64;
+    let conv =
+        |cin: usize, cout: usize, k: usize, pixels: usize| (cin * cout * k * k * pixels) as f64;
     let mut total = 0.0;
     let mut cin = config.in_channels;
     for level in 0..LEVELS {
@@ -210,7 +211,9 @@ mod tests {
     #[test]
     fn width_must_be_a_multiple_of_8() {
         for bad in [0, 4, 12, 100] {
-            let err = GeneratorConfig::with_base_width(bad).validate().unwrap_err();
+            let err = GeneratorConfig::with_base_width(bad)
+                .validate()
+                .unwrap_err();
             assert!(
                 matches!(err, ModelError::InvalidConfig { field: "base_width", value, .. } if value == bad),
                 "{err}"

@@ -27,7 +27,9 @@ pub enum ModelError {
         source: std::io::Error,
     },
     /// The bytes are neither a safetensors file nor a PyTorch checkpoint.
-    #[error("{source_name}: not a weights file ({reason}); expected safetensors or a PyTorch .pth/.pk checkpoint")]
+    #[error(
+        "{source_name}: not a weights file ({reason}); expected safetensors or a PyTorch .pth/.pk checkpoint"
+    )]
     UnknownFormat { source_name: String, reason: String },
     /// A safetensors file could not be parsed or written.
     #[error("{source_name}: safetensors: {reason}")]

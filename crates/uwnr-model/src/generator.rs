@@ -40,13 +40,7 @@ const UPSCALE: usize = 2;
 /// A conv with bias and symmetric zero padding, initialised like the released training:
 /// weights N(0, 0.02); biases as PyTorch's default `Conv2d` init, U(-1/sqrt(fan_in),
 /// 1/sqrt(fan_in)), which `weights_init_normal` leaves in place.
-fn conv(
-    cin: usize,
-    cout: usize,
-    kernel: usize,
-    stride: usize,
-    device: &Device,
-) -> Conv2d {
+fn conv(cin: usize, cout: usize, kernel: usize, stride: usize, device: &Device) -> Conv2d {
     let pad = kernel / 2;
     let mut layer = Conv2dConfig::new([cin, cout], [kernel, kernel])
         .with_stride([stride, stride])
@@ -57,21 +51,19 @@ fn conv(
         })
         .init(device);
     let bound = 1.0 / ((cin * kernel * kernel) as f64).sqrt();
-    layer.bias = Some(Initializer::Uniform {
-        min: -bound,
-        max: bound,
-    }
-    .init([cout], device));
+    layer.bias = Some(
+        Initializer::Uniform {
+            min: -bound,
+            max: bound,
+        }
+        .init([cout], device),
+    );
     layer
 }
 
 /// Builds a conv from known weights (used by the weights loader). `weight` is
 /// `[cout, cin, k, k]`, `bias` is `[cout]`; the caller has checked the shapes.
-pub(crate) fn conv_from_tensors(
-    weight: Tensor<4>,
-    bias: Tensor<1>,
-    stride: usize,
-) -> Conv2d {
+pub(crate) fn conv_from_tensors(weight: Tensor<4>, bias: Tensor<1>, stride: usize) -> Conv2d {
     let [_, _, kh, kw] = weight.dims();
     let pad = kh / 2;
     Conv2d {
@@ -319,7 +311,13 @@ impl Generator {
             up2: Up::init(w(2), device),
             up3: Up::init(w(1), device),
             up4: Up::init(w(0), device),
-            out: conv(config.decoder_out_width(), config.out_channels, 3, 1, device),
+            out: conv(
+                config.decoder_out_width(),
+                config.out_channels,
+                3,
+                1,
+                device,
+            ),
         }
     }
 
@@ -334,6 +332,10 @@ impl Generator {
     /// - `x`: `[b, in_channels, h, w]` with `h` and `w` multiples of 16 (channels: clean RGB,
     ///   depth, light field, all in [0, 1])
     /// - output: `[b, out_channels, h, w]`, in (-1, 1) from the tanh (useful range [0, 1])
+    ///
+    /// # Panics
+    /// In burn's shape checks when `h` or `w` is not a multiple of 16 (a skip connection and
+    /// its upsampled partner then differ by a pixel). [`crate::render`] pads any size.
     pub fn forward(&self, x: Tensor<4>) -> Tensor<4> {
         self.run(x, MeanSource::Own).0
     }
@@ -446,7 +448,10 @@ mod tests {
         // The CA input of block k pools to means[k] when earlier means are the network's own.
         for k in 0..LEVELS {
             let a = g.channel_attention_input(x.clone(), &means[..k]).unwrap();
-            let d: f32 = (global_mean(a) - means[k].clone()).abs().max().into_scalar();
+            let d: f32 = (global_mean(a) - means[k].clone())
+                .abs()
+                .max()
+                .into_scalar();
             assert!(d < 1e-6, "block {k}: {d}");
         }
         assert!(g.channel_attention_input(x, &means).is_err());
@@ -457,24 +462,37 @@ mod tests {
         let device = Device::flex();
         device.seed(7);
         let g = GeneratorConfig::default().init(&device).unwrap();
-        let w = g.down4.block.conk3.weight.val().into_data().to_vec::<f32>().unwrap();
+        let w = g
+            .down4
+            .block
+            .conk3
+            .weight
+            .val()
+            .into_data()
+            .try_to_vec::<f32>()
+            .unwrap();
         let n = w.len() as f64;
         let mean = w.iter().map(|&v| f64::from(v)).sum::<f64>() / n;
-        let std = (w.iter().map(|&v| (f64::from(v) - mean).powi(2)).sum::<f64>() / n).sqrt();
+        let std = (w
+            .iter()
+            .map(|&v| (f64::from(v) - mean).powi(2))
+            .sum::<f64>()
+            / n)
+            .sqrt();
         assert!(mean.abs() < 1e-3, "{mean}");
         assert!((std - INIT_WEIGHT_STD).abs() < 1e-3, "{std}");
         // conk3 of down4: fan_in = 512 * 9, PyTorch's bias bound 1/sqrt(fan_in).
         let bound = 1.0 / (512.0f32 * 9.0).sqrt();
         let b = g.down4.block.conk3.bias.as_ref().unwrap().val().into_data();
-        let b = b.to_vec::<f32>().unwrap();
+        let b = b.try_to_vec::<f32>().unwrap();
         assert!(b.iter().all(|v| v.abs() <= bound));
         assert!(b.iter().any(|v| v.abs() > bound / 2.0));
     }
 
     #[test]
     fn pixel_shuffle_matches_torch_layout() {
-        // torch.nn.PixelShuffle(2) on arange(8).reshape(1, 4, 1, 2):
-        // out[0, 0] = [[0, 4, 1, 5], [2, 6, 3, 7]].
+        // torch.nn.PixelShuffle(2)(torch.arange(8.).reshape(1, 4, 1, 2)).flatten():
+        // out[0, 0] = [[0, 2, 1, 3], [4, 6, 5, 7]] (channel 2i + j goes to sub-pixel (i, j)).
         let device = Device::flex();
         let x = Tensor::<4>::from_data(
             TensorData::new((0..8).map(|v| v as f32).collect::<Vec<_>>(), [1, 4, 1, 2]),
@@ -482,7 +500,7 @@ mod tests {
         );
         let y = PixelShuffleConfig::new(2).init().forward(x);
         assert_eq!(y.dims(), [1, 1, 2, 4]);
-        let v = y.into_data().to_vec::<f32>().unwrap();
-        assert_eq!(v, [0.0, 4.0, 1.0, 5.0, 2.0, 6.0, 3.0, 7.0]);
+        let v = y.into_data().try_to_vec::<f32>().unwrap();
+        assert_eq!(v, [0.0, 2.0, 1.0, 3.0, 4.0, 6.0, 5.0, 7.0]);
     }
 }

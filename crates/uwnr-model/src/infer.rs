@@ -264,7 +264,14 @@ fn tile_extent(b0: usize, b1: usize, margin: usize, len: usize) -> (usize, usize
 /// pixels `[start, end)`. Across the boundary `b[j]` between two tiles, the left tile's weight
 /// falls and the right tile's rises linearly over `[b[j] - half + guard, b[j] + half - guard]`;
 /// the two sum to 1.
-fn axis_weights(b: &[usize], i: usize, start: usize, end: usize, half: usize, guard: usize) -> Vec<f32> {
+fn axis_weights(
+    b: &[usize],
+    i: usize,
+    start: usize,
+    end: usize,
+    half: usize,
+    guard: usize,
+) -> Vec<f32> {
     let ramp = |boundary: usize, p: usize, rising: bool| -> f32 {
         let lo = (boundary + guard) as f64 - half as f64;
         let hi = (boundary + half) as f64 - guard as f64;
@@ -282,7 +289,11 @@ fn axis_weights(b: &[usize], i: usize, start: usize, end: usize, half: usize, gu
     (start..end)
         .map(|p| {
             let left = if i > 0 { ramp(b[i], p, true) } else { 1.0 };
-            let right = if i < last { ramp(b[i + 1], p, false) } else { 1.0 };
+            let right = if i < last {
+                ramp(b[i + 1], p, false)
+            } else {
+                1.0
+            };
             left * right
         })
         .collect()
@@ -300,9 +311,7 @@ fn render_tiled(
     let max_core = opts.tile - opts.overlap;
     let by = core_bounds(hp, max_core);
     let bx = core_bounds(wp, max_core);
-    let cores = || {
-        (0..by.len() - 1).flat_map(|i| (0..bx.len() - 1).map(move |j| (i, j)))
-    };
+    let cores = || (0..by.len() - 1).flat_map(|i| (0..bx.len() - 1).map(move |j| (i, j)));
 
     // Passes 0..LEVELS: the global mean of each block's channel-attention input.
     let enc_margin = half.min(ENCODER_MARGIN);
@@ -321,10 +330,11 @@ fn render_tiled(
             };
             let x = input_tensor(sources, region, device);
             let a = generator.channel_attention_input(x, &means)?; // [1, c, h/s, w/s]
+            let channels = a.dims()[1];
             let core = a
                 .slice([
                     0..1,
-                    0..a.dims()[1],
+                    0..channels,
                     (by[i] - y0) / scale..(by[i + 1] - y0) / scale,
                     (bx[j] - x0) / scale..(bx[j + 1] - x0) / scale,
                 ])
@@ -341,7 +351,10 @@ fn render_tiled(
         let count = ((hp / scale) * (wp / scale)) as f64;
         let c = sum.len();
         let mean: Vec<f32> = sum.into_iter().map(|s| (s / count) as f32).collect();
-        means.push(Tensor::from_data(TensorData::new(mean, [1, c, 1, 1]), device));
+        means.push(Tensor::from_data(
+            TensorData::new(mean, [1, c, 1, 1]),
+            device,
+        ));
     }
     let means: [Tensor<4>; LEVELS] = means
         .try_into()
@@ -378,8 +391,7 @@ fn render_tiled(
                 let col = x0 + tx;
                 weight[row * w + col] += wt;
                 for c in 0..OUTPUT_CHANNELS {
-                    acc[(c * h + row) * w + col] +=
-                        wt * y[(c * region.h + ty) * region.w + tx];
+                    acc[(c * h + row) * w + col] += wt * y[(c * region.h + ty) * region.w + tx];
                 }
             }
         }

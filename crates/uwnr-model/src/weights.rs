@@ -19,8 +19,8 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use burn::nn::conv::Conv2d;
-use burn::store::pytorch::PytorchReader;
 use burn::store::pytorch::PytorchError;
+use burn::store::pytorch::PytorchReader;
 use burn::store::pytorch_reader::DType as TorchDType;
 use burn::tensor::{Device, Tensor, TensorData};
 use safetensors::{Dtype, SafeTensors, tensor::TensorView};
@@ -202,9 +202,19 @@ pub fn generator_from_tensors(
     }
     let mut ups = Vec::with_capacity(LEVELS);
     for (i, prefix) in UP_PREFIXES.iter().enumerate() {
-        ups.push(load_up(&mut src, prefix, config.level_width(LEVELS - 1 - i))?);
+        ups.push(load_up(
+            &mut src,
+            prefix,
+            config.level_width(LEVELS - 1 - i),
+        )?);
     }
-    let out = src.conv("out.0", config.decoder_out_width(), config.out_channels, 3, 1)?;
+    let out = src.conv(
+        "out.0",
+        config.decoder_out_width(),
+        config.out_channels,
+        3,
+        1,
+    )?;
     let ignored = src.finish()?;
     let [in_conv_down1, down2, down3, down4] = into_levels(downs)?;
     let [up1, up2, up3, up4] = into_levels(ups)?;
@@ -247,10 +257,20 @@ pub fn generator_to_tensors(generator: &Generator, config: &GeneratorConfig) -> 
         save_down(&mut sink, prefix, down, cin, c)?;
         cin = c;
     }
-    let ups = [&generator.up1, &generator.up2, &generator.up3, &generator.up4];
+    let ups = [
+        &generator.up1,
+        &generator.up2,
+        &generator.up3,
+        &generator.up4,
+    ];
     for (i, (up, prefix)) in ups.into_iter().zip(UP_PREFIXES).enumerate() {
         let c = config.level_width(LEVELS - 1 - i);
-        put_conv(&mut sink, &format!("{prefix}.up.0"), &up.conv, [2 * c, c, 3, 3])?;
+        put_conv(
+            &mut sink,
+            &format!("{prefix}.up.0"),
+            &up.conv,
+            [2 * c, c, 3, 3],
+        )?;
     }
     let shape = [config.out_channels, config.decoder_out_width(), 3, 3];
     put_conv(&mut sink, "out.0", &generator.out, shape)?;
@@ -286,18 +306,29 @@ fn serialize_safetensors(
         source_name: name.clone(),
         reason,
     };
-    let (st_dtype, encoded): (Dtype, Vec<(&String, &NamedTensor, Vec<u8>)>) = match dtype {
-        WeightsDtype::F32 => (Dtype::F32, encode(tensors, |v| v.to_le_bytes().to_vec())),
-        WeightsDtype::F16 => (
-            Dtype::F16,
-            encode(tensors, |v| half::f16::from_f32(v).to_le_bytes().to_vec()),
-        ),
-        WeightsDtype::Bf16 => (
-            Dtype::BF16,
-            encode(tensors, |v| half::bf16::from_f32(v).to_le_bytes().to_vec()),
-        ),
+    let (st_dtype, to_bytes): (Dtype, fn(f32) -> Vec<u8>) = match dtype {
+        WeightsDtype::F32 => (Dtype::F32, |v| v.to_le_bytes().to_vec()),
+        WeightsDtype::F16 => (Dtype::F16, |v| {
+            half::f16::from_f32(v).to_le_bytes().to_vec()
+        }),
+        WeightsDtype::Bf16 => (Dtype::BF16, |v| {
+            half::bf16::from_f32(v).to_le_bytes().to_vec()
+        }),
         WeightsDtype::F64 => return Err(st_err("saving as f64 is not supported".into())),
     };
+    let encoded: Vec<_> = tensors
+        .iter()
+        .map(|(k, t)| {
+            (
+                k,
+                t,
+                t.data
+                    .iter()
+                    .flat_map(|&v| to_bytes(v))
+                    .collect::<Vec<u8>>(),
+            )
+        })
+        .collect();
     let mut views = Vec::with_capacity(encoded.len());
     for (key, tensor, bytes) in &encoded {
         let view = TensorView::new(st_dtype, tensor.shape.clone(), bytes)
@@ -313,16 +344,6 @@ fn serialize_safetensors(
     // The convention of Hugging Face tools for tensors in PyTorch layout.
     info.entry("format".into()).or_insert_with(|| "pt".into());
     safetensors::serialize(views, Some(info)).map_err(|e| st_err(e.to_string()))
-}
-
-fn encode(
-    tensors: &TensorMap,
-    f: impl Fn(f32) -> Vec<u8>,
-) -> Vec<(&String, &NamedTensor, Vec<u8>)> {
-    tensors
-        .iter()
-        .map(|(k, t)| (k, t, t.data.iter().flat_map(|&v| f(v)).collect()))
-        .collect()
 }
 
 /// Identifies the container from the first bytes.
@@ -448,7 +469,10 @@ fn read_checkpoint(path: &Path, name: &str) -> Result<LoadedWeights> {
             reason: e.to_string(),
         })?;
         let (data, dtype) = match tensor.dtype() {
-            TorchDType::F32 => (decode_le::<4>(&bytes, f32::from_ne_bytes), WeightsDtype::F32),
+            TorchDType::F32 => (
+                decode_le::<4>(&bytes, f32::from_ne_bytes),
+                WeightsDtype::F32,
+            ),
             TorchDType::F16 => (
                 decode_le::<2>(&bytes, |b| half::f16::from_ne_bytes(b).to_f32()),
                 WeightsDtype::F16,
@@ -607,20 +631,51 @@ fn load_block(src: &mut TensorSource, prefix: &str, c: usize) -> Result<BasicBlo
 }
 
 fn load_up(src: &mut TensorSource, prefix: &str, c: usize) -> Result<Up> {
-    Ok(Up::from_conv(src.conv(&format!("{prefix}.up.0"), c, 2 * c, 3, 1)?))
+    Ok(Up::from_conv(src.conv(
+        &format!("{prefix}.up.0"),
+        c,
+        2 * c,
+        3,
+        1,
+    )?))
 }
 
 fn save_down(sink: &mut TensorMap, prefix: &str, down: &Down, cin: usize, c: usize) -> Result<()> {
-    put_conv(sink, &format!("{prefix}.mpconv.0"), &down.conv, [c, cin, 3, 3])?;
+    put_conv(
+        sink,
+        &format!("{prefix}.mpconv.0"),
+        &down.conv,
+        [c, cin, 3, 3],
+    )?;
     let p = format!("{prefix}.mpconv.2");
     let b = &down.block;
     let r = c / ATTENTION_REDUCTION;
     put_conv(sink, &format!("{p}.conk3"), &b.conk3, [c, c, 3, 3])?;
     put_conv(sink, &format!("{p}.conk1"), &b.conk1, [c, c, 1, 1])?;
-    put_conv(sink, &format!("{p}.SA.spatial_pool.0"), &b.sa.reduce, [r, c, 1, 1])?;
-    put_conv(sink, &format!("{p}.SA.spatial_pool.2"), &b.sa.expand, [1, r, 1, 1])?;
-    put_conv(sink, &format!("{p}.CA.channel_map.0"), &b.ca.reduce, [r, c, 1, 1])?;
-    put_conv(sink, &format!("{p}.CA.channel_map.2"), &b.ca.expand, [c, r, 1, 1])?;
+    put_conv(
+        sink,
+        &format!("{p}.SA.spatial_pool.0"),
+        &b.sa.reduce,
+        [r, c, 1, 1],
+    )?;
+    put_conv(
+        sink,
+        &format!("{p}.SA.spatial_pool.2"),
+        &b.sa.expand,
+        [1, r, 1, 1],
+    )?;
+    put_conv(
+        sink,
+        &format!("{p}.CA.channel_map.0"),
+        &b.ca.reduce,
+        [r, c, 1, 1],
+    )?;
+    put_conv(
+        sink,
+        &format!("{p}.CA.channel_map.2"),
+        &b.ca.expand,
+        [c, r, 1, 1],
+    )?;
     // The unused InstanceNorm2d(c/2, affine=True), at PyTorch's init (weight 1, bias 0).
     let n = c / 2;
     sink.insert(
@@ -686,7 +741,7 @@ trait ToF32Vec {
 impl ToF32Vec for TensorData {
     fn convert_dtype_checked(self) -> Result<Vec<f32>> {
         self.try_cast_as::<f32>()
-            .and_then(|d| d.into_vec::<f32>())
+            .and_then(|d| d.try_into_vec::<f32>())
             .map_err(|e| ModelError::Backend(e.to_string()))
     }
 }
@@ -728,10 +783,8 @@ impl TempFile {
     fn write(bytes: &[u8]) -> Result<Self> {
         static COUNTER: AtomicUsize = AtomicUsize::new(0);
         let n = COUNTER.fetch_add(1, Ordering::Relaxed);
-        let path = std::env::temp_dir().join(format!(
-            "uwnr-weights-{}-{n}.pth.tmp",
-            std::process::id()
-        ));
+        let path =
+            std::env::temp_dir().join(format!("uwnr-weights-{}-{n}.pth.tmp", std::process::id()));
         let file = Self { path };
         let mut f = std::fs::File::create(&file.path).map_err(|source| ModelError::Io {
             path: file.path.clone(),
@@ -782,7 +835,10 @@ mod tests {
         ] {
             assert!(map.contains_key(key), "{key}");
         }
-        assert_eq!(map["down4.mpconv.2.CA.channel_map.2.weight"].shape, [64, 16, 1, 1]);
+        assert_eq!(
+            map["down4.mpconv.2.CA.channel_map.2.weight"].shape,
+            [64, 16, 1, 1]
+        );
         assert_eq!(map["out.0.weight"].shape, [3, 4, 3, 3]);
         let total: usize = map.values().map(|t| t.data.len()).sum();
         assert_eq!(total, crate::config::param_count(&cfg, true));

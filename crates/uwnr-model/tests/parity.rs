@@ -9,7 +9,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use burn::tensor::{Tensor, TensorData};
-use uwnr_model::weights::{generator_to_tensors, SOURCE_METADATA_KEY};
+use uwnr_model::weights::{SOURCE_METADATA_KEY, generator_to_tensors};
 use uwnr_model::{
     Device, GeneratorConfig, ModelError, WeightsDtype, WeightsFormat, load_generator,
     load_generator_from_bytes, read_weights, save_generator,
@@ -50,7 +50,7 @@ fn tensor4(shape: &[usize], data: &[f32], device: &Device) -> Tensor<4> {
 }
 
 fn max_abs(a: Tensor<4>, b: &[f32]) -> f32 {
-    let a = a.into_data().to_vec::<f32>().unwrap();
+    let a = a.into_data().try_to_vec::<f32>().unwrap();
     assert_eq!(a.len(), b.len());
     a.iter()
         .zip(b)

@@ -118,7 +118,11 @@ fn draw_cast(rng: &mut ChaCha8Rng, cfg: Option<&ColorCast>) -> Option<Cast> {
 }
 
 fn uniform(rng: &mut ChaCha8Rng, lo: f32, hi: f32) -> f32 {
-    if hi > lo { rng.random_range(lo..hi) } else { lo }
+    if hi > lo {
+        rng.random_range(lo..hi)
+    } else {
+        lo
+    }
 }
 
 /// One training sample: the network input `[7, crop, crop]` and the target `[3, crop, crop]`,
@@ -139,7 +143,11 @@ pub fn make_sample(
     crop: usize,
     light_field: impl Fn(&Image) -> Result<Image>,
 ) -> Result<Sample> {
-    if pair.width < crop || pair.height < crop || plan.x0 + crop > pair.width || plan.y0 + crop > pair.height {
+    if pair.width < crop
+        || pair.height < crop
+        || plan.x0 + crop > pair.width
+        || plan.y0 + crop > pair.height
+    {
         return Err(TrainError::BadImage {
             path: pair.name.clone().into(),
             reason: format!(
@@ -278,7 +286,9 @@ mod tests {
             color_cast: Some(ColorCast::default()),
             ..AugmentConfig::default()
         };
-        let plans: Vec<SamplePlan> = (0..200).map(|i| plan_sample(3, 2, i, (0, 64, 64), 32, &aug)).collect();
+        let plans: Vec<SamplePlan> = (0..200)
+            .map(|i| plan_sample(3, 2, i, (0, 64, 64), 32, &aug))
+            .collect();
         assert!(plans.iter().any(|p| p.flip) && plans.iter().any(|p| !p.flip));
         assert!((0..4).all(|t| plans.iter().any(|p| p.quarter_turns == t)));
         for p in &plans {

@@ -106,7 +106,13 @@ pub fn save_checkpoint(
         SOURCE_METADATA_KEY.to_string(),
         format!("uwnr train, step {}, epoch {}", state.step, state.epoch),
     );
-    save_generator(model, config, &tmp.join(GENERATOR_FILE), WeightsDtype::F32, &meta)?;
+    save_generator(
+        model,
+        config,
+        &tmp.join(GENERATOR_FILE),
+        WeightsDtype::F32,
+        &meta,
+    )?;
     let json = serde_json::to_string_pretty(state).map_err(|e| ck_err(e.to_string()))?;
     let state_path = tmp.join(STATE_FILE);
     std::fs::write(&state_path, json).map_err(io(&state_path))?;
@@ -150,7 +156,10 @@ pub fn read_state(dir: &Path) -> Result<RunState> {
     if state.version != STATE_VERSION {
         return Err(TrainError::Checkpoint {
             path,
-            reason: format!("state version {} (this build reads {STATE_VERSION})", state.version),
+            reason: format!(
+                "state version {} (this build reads {STATE_VERSION})",
+                state.version
+            ),
         });
     }
     Ok(state)
@@ -186,7 +195,10 @@ pub fn load_checkpoint(
 }
 
 fn sibling(dir: &Path, suffix: &str) -> PathBuf {
-    let mut name = dir.file_name().map(|n| n.to_os_string()).unwrap_or_default();
+    let mut name = dir
+        .file_name()
+        .map(|n| n.to_os_string())
+        .unwrap_or_default();
     name.push(".");
     name.push(suffix);
     dir.with_file_name(name)

@@ -246,7 +246,8 @@ impl Default for TrainConfig {
 impl TrainConfig {
     /// Checks every field that could make a run fail late.
     pub fn validate(&self) -> Result<()> {
-        let bad = |field: &'static str, reason: String| Err(TrainError::InvalidConfig { field, reason });
+        let bad =
+            |field: &'static str, reason: String| Err(TrainError::InvalidConfig { field, reason });
         self.model
             .validate()
             .map_err(|e| TrainError::InvalidConfig {
@@ -262,7 +263,10 @@ impl TrainConfig {
         if self.crop == 0 || !self.crop.is_multiple_of(SIZE_MULTIPLE) {
             return bad(
                 "crop",
-                format!("{} must be a positive multiple of {SIZE_MULTIPLE}", self.crop),
+                format!(
+                    "{} must be a positive multiple of {SIZE_MULTIPLE}",
+                    self.crop
+                ),
             );
         }
         if !(self.lr.is_finite() && self.lr > 0.0) {

@@ -55,7 +55,10 @@ impl CsvLog {
             path: self.path.clone(),
             source,
         };
-        let mut f = OpenOptions::new().append(true).open(&self.path).map_err(io)?;
+        let mut f = OpenOptions::new()
+            .append(true)
+            .open(&self.path)
+            .map_err(io)?;
         writeln!(f, "{}", fields.join(",")).map_err(io)
     }
 
@@ -69,7 +72,11 @@ impl CsvLog {
             .lines()
             .skip(1)
             .filter(|l| !l.trim().is_empty())
-            .map(|l| l.split(',').map(|v| v.trim().parse().unwrap_or(f64::NAN)).collect())
+            .map(|l| {
+                l.split(',')
+                    .map(|v| v.trim().parse().unwrap_or(f64::NAN))
+                    .collect()
+            })
             .collect())
     }
 }

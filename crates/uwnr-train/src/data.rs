@@ -78,7 +78,11 @@ pub fn discover_pairs(dir: &Path, max_pairs: Option<usize>) -> Result<FolderPair
     let underwater = list_images(&uw_dir)?;
     let clean = list_images(&clean_dir)?;
     if underwater.is_empty() || clean.is_empty() {
-        let empty = if underwater.is_empty() { &uw_dir } else { &clean_dir };
+        let empty = if underwater.is_empty() {
+            &uw_dir
+        } else {
+            &clean_dir
+        };
         return Err(TrainError::NoPairs {
             dir: dir.to_path_buf(),
             reason: format!("{} holds no images", empty.display()),
@@ -167,7 +171,11 @@ pub struct PairData {
 impl PairData {
     /// Packs f32 images (clean and underwater RGB, depth grey; same size) into the compact form.
     pub fn pack(name: &str, clean: &Image, underwater: &Image, depth: &Image) -> Result<Self> {
-        for (what, im, ch) in [("clean", clean, 3), ("underwater", underwater, 3), ("depth", depth, 1)] {
+        for (what, im, ch) in [
+            ("clean", clean, 3),
+            ("underwater", underwater, 3),
+            ("depth", depth, 1),
+        ] {
             if im.size() != clean.size() || im.channels() != ch {
                 return Err(TrainError::BadImage {
                     path: PathBuf::from(name),
@@ -214,13 +222,20 @@ impl PairData {
 
     /// The depth map as f32.
     pub fn depth_image(&self) -> Result<Image> {
-        let data = self.depth.iter().map(|&v| f32::from(v) / DEPTH_CODE_MAX).collect();
+        let data = self
+            .depth
+            .iter()
+            .map(|&v| f32::from(v) / DEPTH_CODE_MAX)
+            .collect();
         Ok(Image::from_planar(self.width, self.height, 1, data)?)
     }
 }
 
 fn rgb8_to_image(w: usize, h: usize, planar: &[u8]) -> Result<Image> {
-    let data = planar.iter().map(|&v| f32::from(v) / RGB_CODE_MAX).collect();
+    let data = planar
+        .iter()
+        .map(|&v| f32::from(v) / RGB_CODE_MAX)
+        .collect();
     Ok(Image::from_planar(w, h, 3, data)?)
 }
 
@@ -271,9 +286,15 @@ impl DataReport {
             let _ = writeln!(s, "depth: {note}");
         }
         let lists: [(&str, &Vec<String>); 3] = [
-            ("upscaled to the crop (smaller than the crop)", &self.upscaled),
+            (
+                "upscaled to the crop (smaller than the crop)",
+                &self.upscaled,
+            ),
             ("padded to the crop (smaller than the crop)", &self.padded),
-            ("clean image resized to its underwater partner", &self.resized_clean),
+            (
+                "clean image resized to its underwater partner",
+                &self.resized_clean,
+            ),
         ];
         for (what, names) in lists {
             if !names.is_empty() {
@@ -318,13 +339,20 @@ pub struct LoadOptions {
 
 /// Discovers, decodes and prepares the training and validation pairs (in parallel). Files that
 /// cannot be decoded are skipped and listed; a folder without pairs is an error.
-pub fn load_data(train_dirs: &[PathBuf], val_dir: Option<&Path>, opts: &LoadOptions) -> Result<TrainData> {
+pub fn load_data(
+    train_dirs: &[PathBuf],
+    val_dir: Option<&Path>,
+    opts: &LoadOptions,
+) -> Result<TrainData> {
     if train_dirs.is_empty() {
         return Err(TrainError::NoData("no --data folder given".into()));
     }
     let default_depth = opts.depth.prepare_with_limits(opts.limits)?;
     let mut report = DataReport {
-        depth_notes: vec![format!("{:?} for folders without a {DEPTH_DIR}/ folder", opts.depth)],
+        depth_notes: vec![format!(
+            "{:?} for folders without a {DEPTH_DIR}/ folder",
+            opts.depth
+        )],
         ..DataReport::default()
     };
     let mut pairs = Vec::new();
@@ -403,13 +431,19 @@ pub fn load_data(train_dirs: &[PathBuf], val_dir: Option<&Path>, opts: &LoadOpti
 }
 
 /// The depth-map source of a folder that has its own `depth/` folder.
-fn folder_depth(found: &FolderPairs, opts: &LoadOptions, report: &mut DataReport) -> Result<Option<PreparedDepth>> {
+fn folder_depth(
+    found: &FolderPairs,
+    opts: &LoadOptions,
+    report: &mut DataReport,
+) -> Result<Option<PreparedDepth>> {
     let Some(dir) = &found.depth_dir else {
         return Ok(None);
     };
-    report
-        .depth_notes
-        .push(format!("{}: maps from {}", found.dir.display(), dir.display()));
+    report.depth_notes.push(format!(
+        "{}: maps from {}",
+        found.dir.display(),
+        dir.display()
+    ));
     let source = DepthSource::Maps {
         path: dir.clone(),
         invert: false,
@@ -534,7 +568,8 @@ mod tests {
 
     #[test]
     fn pack_round_trips_8_bit_values() {
-        let clean = Image::from_planar(2, 1, 3, vec![0.0, 1.0, 0.5, 0.25, 1.0 / 255.0, 0.2]).unwrap();
+        let clean =
+            Image::from_planar(2, 1, 3, vec![0.0, 1.0, 0.5, 0.25, 1.0 / 255.0, 0.2]).unwrap();
         let depth = Image::from_planar(2, 1, 1, vec![0.0, 0.123_456]).unwrap();
         let p = PairData::pack("a", &clean, &clean, &depth).unwrap();
         let back = p.clean_image().unwrap();

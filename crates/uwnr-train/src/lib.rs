@@ -34,7 +34,10 @@ pub mod plot;
 pub mod trainer;
 pub mod vgg;
 
-pub use config::{AugmentConfig, ColorCast, LightFieldLoss, LossWeights, PerceptualFallback, SmallImagePolicy, TrainConfig};
+pub use config::{
+    AugmentConfig, ColorCast, LightFieldLoss, LossWeights, PerceptualFallback, SmallImagePolicy,
+    TrainConfig,
+};
 pub use error::{Result, TrainError};
 pub use losses::{Criterion, LossValues};
 pub use trainer::{Event, TrainOptions, TrainSummary, ValResult, train, train_step};

@@ -15,7 +15,9 @@ use std::thread::JoinHandle;
 use rayon::prelude::*;
 use uwnr_core::Image;
 
-use crate::augment::{INPUT_CHANNELS, Sample, TARGET_CHANNELS, epoch_order, make_sample, plan_sample};
+use crate::augment::{
+    INPUT_CHANNELS, Sample, TARGET_CHANNELS, epoch_order, make_sample, plan_sample,
+};
 use crate::config::AugmentConfig;
 use crate::data::PairData;
 use crate::error::{Result, TrainError};
@@ -123,7 +125,13 @@ pub struct Loader {
 impl Loader {
     /// Starts producing from batch `start_index` of epoch `start_epoch` up to the end of epoch
     /// `end_epoch - 1`, keeping at most `prefetch` batches ready.
-    pub fn start(spec: BatchSpec, start_epoch: usize, start_index: usize, end_epoch: usize, prefetch: usize) -> Self {
+    pub fn start(
+        spec: BatchSpec,
+        start_epoch: usize,
+        start_index: usize,
+        end_epoch: usize,
+        prefetch: usize,
+    ) -> Self {
         let (tx, rx) = sync_channel(prefetch.max(1));
         let stop = Arc::new(AtomicBool::new(false));
         let flag = stop.clone();
@@ -141,7 +149,9 @@ impl Loader {
     /// The next batch, or `None` after the last epoch.
     pub fn next_batch(&mut self) -> Option<Result<Batch>> {
         if self.handle.is_none() {
-            return Some(Err(TrainError::Loader("the loader thread could not be started".into())));
+            return Some(Err(TrainError::Loader(
+                "the loader thread could not be started".into(),
+            )));
         }
         self.rx.as_ref()?.recv().ok()
     }

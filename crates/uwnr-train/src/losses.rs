@@ -230,7 +230,9 @@ impl Perceptual {
     pub fn describe(&self) -> &'static str {
         match self {
             Self::Vgg(_) => "VGG19 perceptual (features[:1,:3,:5,:9,:13], 0.2 each, L1)",
-            Self::Ssim => "1 - SSIM (11x11 Gaussian window), standing in for the VGG19 perceptual term",
+            Self::Ssim => {
+                "1 - SSIM (11x11 Gaussian window), standing in for the VGG19 perceptual term"
+            }
             Self::Off => "none",
         }
     }
@@ -363,7 +365,13 @@ impl Criterion {
             + dc.clone() * w.dark_channel
             + lf.clone() * w.light_field;
         let terms = Tensor::cat(
-            vec![rec.detach(), per.detach(), dc.detach(), lf.detach(), total.clone().detach()],
+            vec![
+                rec.detach(),
+                per.detach(),
+                dc.detach(),
+                lf.detach(),
+                total.clone().detach(),
+            ],
             0,
         );
         LossOutput { total, terms }
@@ -374,7 +382,7 @@ impl Criterion {
 pub fn read_terms(terms: Tensor<1>) -> crate::error::Result<LossValues> {
     let v = terms
         .into_data()
-        .to_vec::<f32>()
+        .try_to_vec::<f32>()
         .map_err(|e| crate::error::TrainError::Loader(format!("reading loss values: {e:?}")))?;
     let g = |i: usize| v.get(i).copied().map_or(f64::NAN, f64::from);
     Ok(LossValues {

@@ -46,7 +46,12 @@ pub type ValPoint = (usize, f64);
 /// Draws `curves.png`: the top panel shows the loss terms and the total (log scale) against
 /// the step, the bottom panel the validation PSNR with horizontal reference lines (e.g.
 /// baselines) at `refs`.
-pub fn draw_curves(path: &Path, losses: &[LossPoint], val: &[ValPoint], refs: &[f64]) -> Result<()> {
+pub fn draw_curves(
+    path: &Path,
+    losses: &[LossPoint],
+    val: &[ValPoint],
+    refs: &[f64],
+) -> Result<()> {
     let mut img = RgbImage::from_pixel(PLOT_W, 2 * PANEL_H, WHITE);
     let max_step = losses
         .iter()
@@ -58,9 +63,17 @@ pub fn draw_curves(path: &Path, losses: &[LossPoint], val: &[ValPoint], refs: &[
     // Loss panel (log10 of positive values).
     let logs: Vec<(f64, [f64; 5])> = losses
         .iter()
-        .map(|(s, v)| (*s as f64, v.map(|x| if x > 0.0 { x.log10() } else { f64::NAN })))
+        .map(|(s, v)| {
+            (
+                *s as f64,
+                v.map(|x| if x > 0.0 { x.log10() } else { f64::NAN }),
+            )
+        })
         .collect();
-    let finite = logs.iter().flat_map(|(_, v)| v.iter().copied()).filter(|v| v.is_finite());
+    let finite = logs
+        .iter()
+        .flat_map(|(_, v)| v.iter().copied())
+        .filter(|v| v.is_finite());
     let (lo, hi) = bounds(finite);
     let panel = Panel::new(0, (0.0, max_step), (lo, hi));
     panel.frame(&mut img, "LOSS LOG10", |v| format!("{:.2}", 10f64.powf(v)));
@@ -149,7 +162,13 @@ impl Panel {
             let step = self.xr.0 + (self.xr.1 - self.xr.0) * f64::from(i as u8) / 2.0;
             let label = format!("{}", step.round() as u64);
             let tw = text_width(&label);
-            draw_text(img, (x - tw / 2).max(0), self.y0 + self.h + 6, &label, BLACK);
+            draw_text(
+                img,
+                (x - tw / 2).max(0),
+                self.y0 + self.h + 6,
+                &label,
+                BLACK,
+            );
         }
         let (l, r, t, b) = (self.x0, self.x0 + self.w, self.y0, self.y0 + self.h);
         line(img, (l, t), (r, t), BLACK);
@@ -259,7 +278,14 @@ fn draw_text(img: &mut RgbImage, x: i64, y: i64, s: &str, c: Rgb<u8>) {
         for (row, bits) in g.iter().enumerate() {
             for col in 0..3 {
                 if bits & (4 >> col) != 0 {
-                    fill_rect(img, x + (i as i64 * 4 + col) * k, y + row as i64 * k, k, k, c);
+                    fill_rect(
+                        img,
+                        x + (i as i64 * 4 + col) * k,
+                        y + row as i64 * k,
+                        k,
+                        k,
+                        c,
+                    );
                 }
             }
         }
@@ -289,7 +315,9 @@ pub fn contact_sheet(path: &Path, rows: &[(Image, Image, Image)], thumb: usize) 
     for (a, b, c) in rows {
         let mut row = Vec::with_capacity(3);
         for im in [a, b, c] {
-            let w = ((im.width() * thumb) as f64 / im.height().max(1) as f64).round().max(1.0) as usize;
+            let w = ((im.width() * thumb) as f64 / im.height().max(1) as f64)
+                .round()
+                .max(1.0) as usize;
             row.push(resize_bilinear(im, w, thumb)?);
         }
         width = width.max(row.iter().map(|i| i.width() + GAP).sum::<usize>() + GAP);
@@ -305,7 +333,11 @@ pub fn contact_sheet(path: &Path, rows: &[(Image, Image, Image)], thumb: usize) 
             for yy in 0..im.height() {
                 for xx in 0..im.width() {
                     let i = 3 * (yy * im.width() + xx);
-                    sheet.put_pixel((x + xx) as u32, (y + yy) as u32, Rgb([px[i], px[i + 1], px[i + 2]]));
+                    sheet.put_pixel(
+                        (x + xx) as u32,
+                        (y + yy) as u32,
+                        Rgb([px[i], px[i + 1], px[i + 2]]),
+                    );
                 }
             }
             x += im.width() + GAP;

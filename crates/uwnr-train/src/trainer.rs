@@ -14,12 +14,12 @@
 //! checkpoints/best/    the generator with the best validation PSNR
 //! ```
 
-use std::io::Write as _;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
+use burn::module::Module;
 use burn::optim::{AdamWConfig, GradientsParams, ModuleOptimizer};
 use burn::tensor::{Device, Tensor, TensorData};
 use uwnr_core::Image;
@@ -28,7 +28,8 @@ use uwnr_model::{Generator, RenderOptions, render};
 
 use crate::augment::{INPUT_CHANNELS, TARGET_CHANNELS};
 use crate::checkpoint::{
-    BEST, CHECKPOINTS_DIR, LAST, RunState, STATE_VERSION, find_checkpoint, load_checkpoint, save_checkpoint,
+    BEST, CHECKPOINTS_DIR, LAST, RunState, STATE_VERSION, find_checkpoint, load_checkpoint,
+    save_checkpoint,
 };
 use crate::config::TrainConfig;
 use crate::csvlog::{CsvLog, METRICS_HEADER, VAL_HEADER};
@@ -273,7 +274,10 @@ pub fn train(
         ));
     }
     let criterion = Criterion::new(cfg, vgg);
-    observer(Event::Message(&format!("perceptual term: {}", criterion.perceptual.describe())));
+    observer(Event::Message(&format!(
+        "perceptual term: {}",
+        criterion.perceptual.describe()
+    )));
 
     let spec = BatchSpec {
         pairs: Arc::new(pairs),
@@ -283,7 +287,13 @@ pub fn train(
         augment: cfg.augment,
         light_field: lf::light_field_raw,
     };
-    let mut loader = Loader::start(spec, state.epoch, state.batch_in_epoch, cfg.epochs, cfg.prefetch_batches);
+    let mut loader = Loader::start(
+        spec,
+        state.epoch,
+        state.batch_in_epoch,
+        cfg.epochs,
+        cfg.prefetch_batches,
+    );
     observer(Event::Started {
         step: state.step,
         total_steps,
@@ -358,8 +368,10 @@ pub fn train(
         if state.step.is_multiple_of(cfg.log_every_steps) || state.step == total_steps {
             window.flush(&metrics, state.step, epoch_of_step, lr)?;
         }
-        let mut want_ck = (cfg.checkpoint_every_steps > 0 && state.step.is_multiple_of(cfg.checkpoint_every_steps))
-            || (cfg.checkpoint_every_secs > 0 && last_ck.elapsed().as_secs() >= cfg.checkpoint_every_secs);
+        let mut want_ck = (cfg.checkpoint_every_steps > 0
+            && state.step.is_multiple_of(cfg.checkpoint_every_steps))
+            || (cfg.checkpoint_every_secs > 0
+                && last_ck.elapsed().as_secs() >= cfg.checkpoint_every_secs);
         if state.batch_in_epoch == steps_per_epoch {
             state.epoch += 1;
             state.batch_in_epoch = 0;
@@ -390,7 +402,14 @@ pub fn train(
     }
     drop(loader);
     summary.finished = state.step >= total_steps;
-    window.flush(&metrics, state.step, state.epoch.saturating_sub(1), cfg.lr_at(state.step, steps_per_epoch))?;
+    // The epoch and learning rate of the last step done.
+    let last_epoch = if state.batch_in_epoch == 0 {
+        state.epoch.saturating_sub(1)
+    } else {
+        state.epoch
+    };
+    let last_lr = cfg.lr_at(state.step.saturating_sub(1), steps_per_epoch);
+    window.flush(&metrics, state.step, last_epoch, last_lr)?;
     state.train_secs = base_secs + session_clock.elapsed().as_secs_f64();
     if summary.session_steps > 0 || !opts.resume {
         save_checkpoint(&ck_last, &model, &cfg.model, Some(&optim), &state)?;
@@ -417,7 +436,12 @@ struct Ctx<'a> {
 }
 
 impl Ctx<'_> {
-    fn validate(&self, model: &Generator, state: &RunState, observer: &mut dyn FnMut(Event<'_>)) -> Result<ValResult> {
+    fn validate(
+        &self,
+        model: &Generator,
+        state: &RunState,
+        observer: &mut dyn FnMut(Event<'_>),
+    ) -> Result<ValResult> {
         let t0 = Instant::now();
         let g = model.valid();
         let opts = RenderOptions::default();
@@ -456,7 +480,11 @@ impl Ctx<'_> {
                 path: dir.clone(),
                 source,
             })?;
-            contact_sheet(&dir.join(format!("step-{:07}.png", state.step)), &sheet, SHEET_THUMB)?;
+            contact_sheet(
+                &dir.join(format!("step-{:07}.png", state.step)),
+                &sheet,
+                SHEET_THUMB,
+            )?;
         }
         observer(Event::Validation(&result));
         Ok(result)
@@ -510,8 +538,14 @@ pub fn train_step(
     device: &Device,
 ) -> Result<(Generator, LossValues)> {
     let (b, c) = (batch.size, batch.crop);
-    let x = Tensor::<4>::from_data(TensorData::new(batch.input.clone(), [b, INPUT_CHANNELS, c, c]), device);
-    let y = Tensor::<4>::from_data(TensorData::new(batch.target.clone(), [b, TARGET_CHANNELS, c, c]), device);
+    let x = Tensor::<4>::from_data(
+        TensorData::new(batch.input.clone(), [b, INPUT_CHANNELS, c, c]),
+        device,
+    );
+    let y = Tensor::<4>::from_data(
+        TensorData::new(batch.target.clone(), [b, TARGET_CHANNELS, c, c]),
+        device,
+    );
     let out = model.forward(x); // [b, 3, c, c]
     let loss = criterion.forward(out, y);
     let grads = loss.total.backward();
@@ -565,7 +599,9 @@ fn prepare_run_dir(cfg: &TrainConfig, run: &Path, resume: bool) -> Result<()> {
         return Ok(());
     }
     if cfg_path.exists() || run.join(CHECKPOINTS_DIR).exists() {
-        return Err(TrainError::RunExists { dir: run.to_path_buf() });
+        return Err(TrainError::RunExists {
+            dir: run.to_path_buf(),
+        });
     }
     std::fs::create_dir_all(run).map_err(|source| TrainError::Io {
         path: run.to_path_buf(),
@@ -578,4 +614,3 @@ fn write_file(path: &Path, text: &str) -> Result<()> {
     uwnr_core::io::write_atomic(path, |out| out.write_all(text.as_bytes()))?;
     Ok(())
 }
-

@@ -82,7 +82,10 @@ impl Vgg19Features {
                 .tensor(&key)
                 .map_err(|_| err(format!("missing tensor {key}")))?;
             if view.shape() != shape {
-                return Err(err(format!("{key} has shape {:?}, expected {shape:?}", view.shape())));
+                return Err(err(format!(
+                    "{key} has shape {:?}, expected {shape:?}",
+                    view.shape()
+                )));
             }
             let data = view.data();
             let values: Vec<f32> = match view.dtype() {
@@ -98,7 +101,11 @@ impl Vgg19Features {
                     .chunks_exact(2)
                     .map(|b| half::bf16::from_le_bytes([b[0], b[1]]).to_f32())
                     .collect(),
-                other => return Err(err(format!("{key} has dtype {other:?}, expected a float type"))),
+                other => {
+                    return Err(err(format!(
+                        "{key} has dtype {other:?}, expected a float type"
+                    )));
+                }
             };
             if values.iter().any(|v| !v.is_finite()) {
                 return Err(err(format!("{key} holds non-finite values")));

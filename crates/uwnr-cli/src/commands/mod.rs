@@ -4,6 +4,7 @@ mod depth;
 mod info;
 mod lightfield;
 mod render;
+mod train;
 
 use std::path::Path;
 use std::process::ExitCode;
@@ -21,6 +22,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
         Command::Lightfield(a) => lightfield::run(&a),
         Command::Depth(a) => depth::run(&a),
         Command::Info(a) => info::run(&a),
+        Command::Train(a) => train::run(&a),
     }
 }
 

@@ -1,13 +1,14 @@
-//! Colour-texture statistics: a fixed, weight-free 142-d image descriptor for distribution
+//! Colour-texture statistics: a fixed, weight-free 155-d image descriptor for distribution
 //! distances when no InceptionV3 is available. The Fréchet distance on it is called FD-ct
 //! ("Fréchet distance on colour-texture features"); it is not FID and its values are not
 //! comparable with FID's.
 //!
 //! It describes what separates underwater renders from real underwater photos: colour cast and
 //! its spread, haze (dark channel), contrast and detail at several scales, and the low-frequency
-//! layout of light. The image is first area-averaged to [`WORKING_SIZE`]² pixels (whatever its
-//! aspect ratio, like Inception's 299²) and clamped to [0, 1]; L*a*b* is skimage's `rgb2lab`
-//! ([`uwnr_core::color::rgb_to_lab_px`]) divided by 100. The vector, in order:
+//! layout of light. The image is first area-averaged to [`COLOR_TEXTURE_WORKING_SIZE`]²
+//! pixels (whatever its aspect ratio, like Inception's 299²) and clamped to [0, 1]; L*a*b*
+//! is skimage's `rgb2lab` ([`uwnr_core::color::rgb_to_lab_px`]) divided by 100. The vector,
+//! in order:
 //!
 //! | index   | count | what |
 //! |---------|-------|------|
@@ -15,12 +16,12 @@
 //! | 9..15   | 6  | R, G, B: mean, standard deviation |
 //! | 15..18  | 3  | chroma `sqrt(a^2 + b^2)`: mean, std; mean HSV saturation |
 //! | 18..26  | 8  | histogram of L in 8 equal bins over [0, 100] (fractions) |
-//! | 26..62  | 36 | joint a-b histogram, 6 x 6 bins of 20 over [-60, 60) (a-major; fractions; outside values go to edge bins) |
-//! | 62..64  | 2  | dark channel (min over RGB, then a 7x7 minimum filter): mean, std |
-//! | 64..70  | 6  | Sobel gradient magnitude of L at scales 1, 1/2, 1/4 (2x2 area pyramid): mean, std |
-//! | 70..82  | 12 | mean absolute derivative of L along 0, 45, 90 and 135 degrees at the 3 scales (scale-major) |
-//! | 82..94  | 12 | RMS of difference-of-Gaussian bands of L, a, b between sigma 0-1, 1-2, 2-4, 4-8 px (channel-major) |
-//! | 94..142 | 48 | layout: mean L, a, b over a 4 x 4 grid (row-major cells, L, a, b per cell) |
+//! | 26..75  | 49 | joint a-b histogram, 7 x 7 bins of 20 over [-70, 70) (a-major; fractions; outside values go to edge bins; neutral grey sits mid-bin) |
+//! | 75..77  | 2  | dark channel (min over RGB, then a 7x7 minimum filter): mean, std |
+//! | 77..83  | 6  | Sobel gradient magnitude of L at scales 1, 1/2, 1/4 (2x2 area pyramid): mean, std |
+//! | 83..95  | 12 | mean absolute derivative of L along 0, 45, 90 and 135 degrees at the 3 scales (scale-major) |
+//! | 95..107 | 12 | RMS of difference-of-Gaussian bands of L, a, b between sigma 0-1, 1-2, 2-4, 4-8 px (channel-major) |
+//! | 107..155 | 48 | layout: mean L, a, b over a 4 x 4 grid (row-major cells, L, a, b per cell) |
 //!
 //! Filters use scipy.ndimage's reflect border; Gaussians are truncated at 4 sigma (scipy's
 //! default). Derivatives are Sobel responses divided by 8, so a unit ramp has slope 1.
@@ -35,16 +36,17 @@ use crate::filter::{PlaneF64, correlate_axis0, correlate_axis1, gaussian_filter,
 use crate::resize::resize_area;
 
 /// Side of the square working image.
-pub const WORKING_SIZE: usize = 128;
+pub const COLOR_TEXTURE_WORKING_SIZE: usize = 128;
 /// Length of the descriptor.
-pub const COLOR_TEXTURE_DIM: usize = 142;
+pub const COLOR_TEXTURE_DIM: usize = 155;
 
 /// L*a*b* values are divided by this, bringing L to [0, 1].
 const LAB_SCALE: f64 = 100.0;
 const L_HIST_BINS: usize = 8;
-const AB_HIST_BINS: usize = 6;
+/// An odd count keeps a = b = 0 in the middle of a bin (grey is not exactly 0 after rounding).
+const AB_HIST_BINS: usize = 7;
 /// The a-b histogram spans [-AB_HIST_RANGE, AB_HIST_RANGE) in L*a*b* units.
-const AB_HIST_RANGE: f64 = 60.0;
+const AB_HIST_RANGE: f64 = 70.0;
 /// Dark channel patch side (He, Sun, Tang 2009 use 15 px at full resolution).
 const DARK_CHANNEL_PATCH: usize = 7;
 /// Pyramid levels for the gradient statistics.
@@ -84,7 +86,7 @@ impl FeatureExtractor for ColorTextureFeatures {
     fn extract(&self, img: &Image) -> Result<Vec<f64>> {
         check_rgb("colour-texture features", img)?;
         check_finite_image("colour-texture input", img)?;
-        let s = WORKING_SIZE;
+        let s = COLOR_TEXTURE_WORKING_SIZE;
         let rgb: Vec<Vec<f64>> = resize_area(img, s, s)
             .into_iter()
             .map(|p| p.into_iter().map(|v| v.clamp(0.0, 1.0)).collect())
@@ -113,7 +115,11 @@ impl FeatureExtractor for ColorTextureFeatures {
             let (m, sd, _) = moments(p);
             f.extend([m, sd]);
         }
-        let chroma: Vec<f64> = lab[1].iter().zip(&lab[2]).map(|(a, b)| a.hypot(*b)).collect();
+        let chroma: Vec<f64> = lab[1]
+            .iter()
+            .zip(&lab[2])
+            .map(|(a, b)| a.hypot(*b))
+            .collect();
         let (cm, csd, _) = moments(&chroma);
         f.extend([cm, csd, mean(&sat)]);
         // Histograms.
@@ -124,7 +130,8 @@ impl FeatureExtractor for ColorTextureFeatures {
             (t.floor().max(0.0) as usize).min(AB_HIST_BINS - 1)
         };
         for i in 0..n {
-            let lb = ((lab[0][i] * L_HIST_BINS as f64).floor().max(0.0) as usize).min(L_HIST_BINS - 1);
+            let lb =
+                ((lab[0][i] * L_HIST_BINS as f64).floor().max(0.0) as usize).min(L_HIST_BINS - 1);
             lh[lb] += 1.0;
             abh[ab_bin(lab[1][i]) * AB_HIST_BINS + ab_bin(lab[2][i])] += 1.0;
         }
@@ -150,7 +157,9 @@ impl FeatureExtractor for ColorTextureFeatures {
             let (mm, msd, _) = moments(&mag);
             magnitude_stats.extend([mm, msd]);
             let r2 = std::f64::consts::FRAC_1_SQRT_2;
-            let mean_abs = |g: &dyn Fn(usize) -> f64| (0..gx.len()).map(|i| g(i).abs()).sum::<f64>() / gx.len() as f64;
+            let mean_abs = |g: &dyn Fn(usize) -> f64| {
+                (0..gx.len()).map(|i| g(i).abs()).sum::<f64>() / gx.len() as f64
+            };
             oriented.extend([
                 mean_abs(&|i| gx[i]),
                 mean_abs(&|i| r2 * (gx[i] + gy[i])),
@@ -178,7 +187,12 @@ impl FeatureExtractor for ColorTextureFeatures {
                 blurred
                     .windows(2)
                     .map(|w| {
-                        let ms = w[0].data.iter().zip(&w[1].data).map(|(a, b)| (a - b) * (a - b)).sum::<f64>()
+                        let ms = w[0]
+                            .data
+                            .iter()
+                            .zip(&w[1].data)
+                            .map(|(a, b)| (a - b) * (a - b))
+                            .sum::<f64>()
                             / n as f64;
                         ms.sqrt()
                     })
@@ -193,7 +207,9 @@ impl FeatureExtractor for ColorTextureFeatures {
                 for p in &lab {
                     let mut sum = 0.0;
                     for y in gy * cell..(gy + 1) * cell {
-                        sum += p[y * s + gx * cell..y * s + (gx + 1) * cell].iter().sum::<f64>();
+                        sum += p[y * s + gx * cell..y * s + (gx + 1) * cell]
+                            .iter()
+                            .sum::<f64>();
                     }
                     f.push(sum / (cell * cell) as f64);
                 }
@@ -224,14 +240,19 @@ fn min_filter(p: &[f64], w: usize, h: usize, k: usize) -> Vec<f64> {
     for y in 0..h {
         for x in 0..w {
             let (x0, x1) = (x.saturating_sub(r), (x + r).min(w - 1));
-            rows[y * w + x] = p[y * w + x0..=y * w + x1].iter().copied().fold(f64::INFINITY, f64::min);
+            rows[y * w + x] = p[y * w + x0..=y * w + x1]
+                .iter()
+                .copied()
+                .fold(f64::INFINITY, f64::min);
         }
     }
     let mut out = vec![0.0; w * h];
     for y in 0..h {
         let (y0, y1) = (y.saturating_sub(r), (y + r).min(h - 1));
         for x in 0..w {
-            out[y * w + x] = (y0..=y1).map(|yy| rows[yy * w + x]).fold(f64::INFINITY, f64::min);
+            out[y * w + x] = (y0..=y1)
+                .map(|yy| rows[yy * w + x])
+                .fold(f64::INFINITY, f64::min);
         }
     }
     out
@@ -244,7 +265,8 @@ fn halve(p: &PlaneF64) -> PlaneF64 {
     for y in 0..h {
         for x in 0..w {
             let i = 2 * y * p.width + 2 * x;
-            data[y * w + x] = 0.25 * (p.data[i] + p.data[i + 1] + p.data[i + p.width] + p.data[i + p.width + 1]);
+            data[y * w + x] =
+                0.25 * (p.data[i] + p.data[i + 1] + p.data[i + p.width] + p.data[i + p.width + 1]);
         }
     }
     PlaneF64::new(w, h, data)
@@ -268,7 +290,12 @@ mod tests {
     #[test]
     fn descriptor_has_the_documented_length_and_is_finite() {
         let fx = ColorTextureFeatures::new();
-        for img in [textured(200, 150), textured(31, 47), Image::filled(1, 1, 3, 0.0), Image::filled(64, 64, 3, 1.0)] {
+        for img in [
+            textured(200, 150),
+            textured(31, 47),
+            Image::filled(1, 1, 3, 0.0),
+            Image::filled(64, 64, 3, 1.0),
+        ] {
             let f = fx.extract(&img).unwrap();
             assert_eq!(f.len(), fx.dim());
             assert!(f.iter().all(|v| v.is_finite()), "{f:?}");
@@ -277,13 +304,19 @@ mod tests {
 
     #[test]
     fn flat_grey_has_no_texture_and_a_single_histogram_bin() {
-        let f = ColorTextureFeatures::new().extract(&Image::filled(50, 40, 3, 0.5)).unwrap();
-        assert!(f[64..94].iter().all(|v| v.abs() < 1e-12), "{:?}", &f[64..94]);
+        let f = ColorTextureFeatures::new()
+            .extract(&Image::filled(50, 40, 3, 0.5))
+            .unwrap();
+        assert!(
+            f[77..107].iter().all(|v| v.abs() < 1e-12),
+            "{:?}",
+            &f[77..107]
+        );
         let l_hist = &f[18..26];
         assert!((l_hist.iter().sum::<f64>() - 1.0).abs() < 1e-12);
         assert_eq!(l_hist.iter().filter(|&&v| v > 0.0).count(), 1);
-        let ab_hist = &f[26..62];
-        // Grey has a = b = 0 (to rounding): bin 3 of 6 on both axes.
+        let ab_hist = &f[26..75];
+        // Grey has a = b = 0 (to rounding): the middle bin on both axes.
         assert!((ab_hist[3 * AB_HIST_BINS + 3] - 1.0).abs() < 1e-12);
     }
 
@@ -299,10 +332,19 @@ mod tests {
         }
         let fx = ColorTextureFeatures::new();
         let (a, b) = (fx.extract(&img).unwrap(), fx.extract(&flipped).unwrap());
-        for i in 0..62 {
-            assert!((a[i] - b[i]).abs() < 1e-9, "index {i}: {} vs {}", a[i], b[i]);
+        for i in 0..77 {
+            assert!(
+                (a[i] - b[i]).abs() < 1e-9,
+                "index {i}: {} vs {}",
+                a[i],
+                b[i]
+            );
         }
-        let layout_diff: f64 = a[94..].iter().zip(&b[94..]).map(|(x, y)| (x - y).abs()).sum();
+        let layout_diff: f64 = a[107..]
+            .iter()
+            .zip(&b[107..])
+            .map(|(x, y)| (x - y).abs())
+            .sum();
         assert!(layout_diff > 1e-3, "{layout_diff}");
     }
 
@@ -315,6 +357,11 @@ mod tests {
         }
         let grey = fx.extract(&Image::filled(64, 64, 3, 0.5)).unwrap();
         let cast = fx.extract(&blue).unwrap();
-        assert!(cast[6] < grey[6] - 0.05, "mean b {} vs {}", cast[6], grey[6]);
+        assert!(
+            cast[6] < grey[6] - 0.05,
+            "mean b {} vs {}",
+            cast[6],
+            grey[6]
+        );
     }
 }

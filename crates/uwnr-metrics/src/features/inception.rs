@@ -84,7 +84,9 @@ impl OnnxInception {
         };
         let side = opts.input_side;
         if side == 0 {
-            return Err(MetricsError::InvalidArgument("Inception input side must be > 0".into()));
+            return Err(MetricsError::InvalidArgument(
+                "Inception input side must be > 0".into(),
+            ));
         }
         let model = tract_onnx::onnx()
             .model_for_path(path)
@@ -114,7 +116,8 @@ impl OnnxInception {
             (None, None) => {
                 return Err(MetricsError::Onnx {
                     path: path.to_path_buf(),
-                    reason: "the output shape is not fixed; give the feature length explicitly".into(),
+                    reason: "the output shape is not fixed; give the feature length explicitly"
+                        .into(),
                 });
             }
         };
@@ -155,7 +158,8 @@ impl FeatureExtractor for OnnxInception {
             reason: format!("{e:#}"),
         };
         let side = self.opts.input_side;
-        let input = Tensor::from_shape(&[1, 3, side, side], &self.preprocess(img)?).map_err(onnx_err)?;
+        let input =
+            Tensor::from_shape(&[1, 3, side, side], &self.preprocess(img)?).map_err(onnx_err)?;
         let outputs = self.plan.run(tvec!(input.into())).map_err(onnx_err)?;
         let first = outputs.first().ok_or_else(|| MetricsError::Onnx {
             path: self.path.clone(),

@@ -2,7 +2,7 @@
 //! [`crate::kid`]):
 //! - [`OnnxInception`]: a user-supplied InceptionV3 ONNX network (pool3, 2048-d) run with
 //!   pytorch-fid's preprocessing; the Fréchet distance on these features is FID;
-//! - [`ColorTextureFeatures`]: a fixed, weight-free 142-d colour-texture descriptor; the
+//! - [`ColorTextureFeatures`]: a fixed, weight-free 155-d colour-texture descriptor; the
 //!   Fréchet distance on it is reported as FD-ct, never as FID.
 
 mod color_texture;
@@ -13,8 +13,11 @@ use uwnr_core::Image;
 
 use crate::error::Result;
 
-pub use color_texture::{COLOR_TEXTURE_DIM, ColorTextureFeatures, WORKING_SIZE};
-pub use inception::{INCEPTION_INPUT_SIDE, INCEPTION_POOL3_DIM, InceptionInputRange, OnnxInception, OnnxInceptionOptions};
+pub use color_texture::{COLOR_TEXTURE_DIM, COLOR_TEXTURE_WORKING_SIZE, ColorTextureFeatures};
+pub use inception::{
+    INCEPTION_INPUT_SIDE, INCEPTION_POOL3_DIM, InceptionInputRange, OnnxInception,
+    OnnxInceptionOptions,
+};
 
 /// Maps an image to a fixed-length feature vector.
 pub trait FeatureExtractor: Send + Sync {
@@ -28,5 +31,8 @@ pub trait FeatureExtractor: Send + Sync {
 
 /// Features of many images, in order, extracted in parallel.
 pub fn extract_all(extractor: &dyn FeatureExtractor, images: &[Image]) -> Result<Vec<Vec<f64>>> {
-    images.par_iter().map(|img| extractor.extract(img)).collect()
+    images
+        .par_iter()
+        .map(|img| extractor.extract(img))
+        .collect()
 }

@@ -1,0 +1,178 @@
+//! The UWNR light-field map ("LFR" module), exactly as the released code computes it.
+//!
+//! Paper (Ye, Chen et al., CVPR-W 2022): `x_g = mean over sigma in {15, 60, 90} of
+//! Gauss_sigma(x_u)`, `x_l = Normalise(log x_g)`. Released code, `MutiScaleLuminanceEstimation`
+//! in `myutils/dcp.py`, applied to a uint8 RGB array:
+//!
+//! ```text
+//! img = cv2.resize(img, dsize=None, fx=0.3, fy=0.3)             # INTER_LINEAR, 256 -> 77
+//! Luminance = np.ones_like(img).astype(np.float)                # float64
+//! for sigma in [15, 60, 90]:
+//!     L1 = np.log10(cv2.GaussianBlur(img, (0, 0), sigma))       # uint8 in, float16 out
+//!     L1 = np.clip(L1, 0, 255); Luminance += L1
+//! Luminance = Luminance / 3
+//! L = (Luminance - min) / (max - min + 0.0001)                  # over all channels together
+//! L = np.uint8(L * 255)                                         # truncation
+//! L = cv2.resize(L, dsize=(w, h))                               # back to the input size
+//! ```
+//!
+//! Every step is reproduced bit for bit: OpenCV's 8-bit resize and blur through
+//! [`crate::resize`] and [`crate::gaussian`], and `np.log10` of a uint8 array, which NumPy
+//! evaluates in float16 (the smallest float type holding uint8): `log10f` rounded to half
+//! precision. At render time the reference first goes through torchvision's
+//! `Resize([256, 256])` on the PIL image, i.e. PIL's antialiased bilinear resize
+//! ([`crate::resize::pil_resize_bilinear_u8`]); in training the map is computed on the 256x256
+//! crop itself. Because the map is always computed at 0.3 x 256 pixels, it does not depend on the
+//! resolution of the reference.
+
+use std::sync::OnceLock;
+
+use crate::error::{CoreError, Result};
+use crate::gaussian::cv_gaussian_blur_u8;
+use crate::image::Image;
+use crate::resize::{
+    U8Image, cv_resize_linear_scale_u8, cv_resize_linear_u8, pil_resize_bilinear_u8,
+    resize_bilinear,
+};
+
+/// Gaussian sigmas of the multi-scale luminance estimate (paper Sec. 3.2; released code
+/// `sigma_list = [15, 60, 90]`).
+pub const LF_SIGMAS: [f64; 3] = [15.0, 60.0, 90.0];
+/// Downscale factor before blurring (released code: `cv2.resize(img, None, fx=0.3, fy=0.3)`).
+pub const LF_SCALE: f64 = 0.3;
+/// Side of the square the reference is resized to at render time (released test code:
+/// `transforms.Resize([256, 256])`).
+pub const LF_REFERENCE_SIZE: usize = 256;
+/// Added to the range in the min-max normalisation (released code: `max - min + 0.0001`).
+pub const LF_NORM_EPS: f64 = 0.0001;
+
+/// Channels of the reference the light field is computed from (RGB).
+const LF_CHANNELS: usize = 3;
+
+/// `np.clip(np.log10(v), 0, 255)` for every uint8 value `v`, as NumPy computes it on a uint8
+/// array: `log10f` rounded to float16 (`log10(0) = -inf` clips to 0).
+fn log10_u8_table() -> &'static [f64; 256] {
+    static TABLE: OnceLock<[f64; 256]> = OnceLock::new();
+    TABLE.get_or_init(|| {
+        let mut t = [0.0; 256];
+        for (v, out) in t.iter_mut().enumerate().skip(1) {
+            *out = half::f16::from_f32((v as f32).log10())
+                .to_f64()
+                .clamp(0.0, 255.0);
+        }
+        t
+    })
+}
+
+/// The values `np.clip(np.log10(np.arange(256, dtype=np.uint8)), 0, 255)` used by the map
+/// (exposed for the tests that check them against NumPy).
+#[must_use]
+pub fn log10_u8_values() -> Vec<f64> {
+    log10_u8_table().to_vec()
+}
+
+/// The released procedure on an 8-bit RGB image at its own size: same size out.
+pub fn light_field_raw_u8(img: &U8Image) -> Result<U8Image> {
+    if img.channels != LF_CHANNELS {
+        return Err(CoreError::ShapeMismatch {
+            expected: (LF_CHANNELS, img.height, img.width),
+            got: (img.channels, img.height, img.width),
+        });
+    }
+    let small = cv_resize_linear_scale_u8(img, LF_SCALE, LF_SCALE)?;
+    let table = log10_u8_table();
+    let mut luminance = vec![1.0_f64; small.data.len()];
+    for sigma in LF_SIGMAS {
+        let blurred = cv_gaussian_blur_u8(&small, sigma)?;
+        for (l, &v) in luminance.iter_mut().zip(&blurred.data) {
+            *l += table[usize::from(v)];
+        }
+    }
+    let count = LF_SIGMAS.len() as f64;
+    for l in &mut luminance {
+        *l /= count;
+    }
+    let (min, max) = luminance
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| {
+            (lo.min(v), hi.max(v))
+        });
+    let denom = max - min + LF_NORM_EPS;
+    // `np.uint8(L * 255)` truncates; L is in [0, 1).
+    let normalised: Vec<u8> = luminance
+        .iter()
+        .map(|&l| ((l - min) / denom * 255.0) as u8)
+        .collect();
+    let small = U8Image::new(small.width, small.height, small.channels, normalised)?;
+    cv_resize_linear_u8(&small, img.width, img.height)
+}
+
+/// The render-time map on an 8-bit RGB reference: PIL bilinear resize to 256x256, then the
+/// released procedure. Output 256x256x3.
+pub fn light_field_u8(reference: &U8Image) -> Result<U8Image> {
+    let resized = pil_resize_bilinear_u8(reference, LF_REFERENCE_SIZE, LF_REFERENCE_SIZE)?;
+    light_field_raw_u8(&resized)
+}
+
+/// The render-time light-field map of a reference image: quantised to u8 (round half up, as the
+/// released code sees uint8), PIL-resized to 256x256, then the released procedure. Returns a
+/// 256x256x3 image with values `u8 / 255`.
+pub fn light_field(reference: &Image) -> Result<Image> {
+    light_field_u8(&U8Image::from_image(reference))?.to_image()
+}
+
+/// The released procedure on an image at its own size (training crops): same size out, values
+/// `u8 / 255`.
+pub fn light_field_raw(image: &Image) -> Result<Image> {
+    light_field_raw_u8(&U8Image::from_image(image))?.to_image()
+}
+
+/// [`light_field`] resized with [`resize_bilinear`] to `width x height`: what rendering feeds the
+/// network next to a clean image of that size.
+pub fn light_field_for(reference: &Image, width: usize, height: usize) -> Result<Image> {
+    resize_bilinear(&light_field(reference)?, width, height)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn log10_table_is_float16_rounded() {
+        let t = log10_u8_table();
+        assert_eq!(t[0], 0.0);
+        assert_eq!(t[1], 0.0);
+        // log10(255) = 2.40654; float16 spacing in [2, 4) is 2^-9.
+        assert!((t[255] - 2.40654).abs() < 1.0 / 512.0);
+        assert_eq!((t[255] * 512.0).fract(), 0.0);
+    }
+
+    #[test]
+    fn flat_image_gives_a_zero_map() {
+        let img = U8Image::new(40, 30, 3, vec![120; 40 * 30 * 3]).unwrap();
+        let lf = light_field_raw_u8(&img).unwrap();
+        assert_eq!((lf.width, lf.height), (40, 30));
+        assert!(lf.data.iter().all(|&v| v == 0));
+    }
+
+    #[test]
+    fn map_spans_the_range() {
+        // A horizontal ramp: the normalised map must reach 0 and (almost) 255.
+        let mut data = Vec::new();
+        for _y in 0..64 {
+            for x in 0..64 {
+                data.extend_from_slice(&[(x * 4) as u8, 100, 50]);
+            }
+        }
+        let lf = light_field_u8(&U8Image::new(64, 64, 3, data).unwrap()).unwrap();
+        assert_eq!((lf.width, lf.height), (256, 256));
+        assert_eq!(*lf.data.iter().min().unwrap(), 0);
+        assert!(*lf.data.iter().max().unwrap() >= 250);
+    }
+
+    #[test]
+    fn rejects_grey_input() {
+        let img = U8Image::new(8, 8, 1, vec![0; 64]).unwrap();
+        assert!(light_field_raw_u8(&img).is_err());
+    }
+}

@@ -1,0 +1,51 @@
+#!/usr/bin/env bash
+# Trains the bundled default model: full width (base width 64), Builtin depth, on
+# paired/euvp-dark plus paired/lsui (listed three times to weight its varied styles up),
+# validated on paired/uieb-val only, with the colour-cast augmentation (TRAINING-NOTES: plain
+# EUVP training does not transfer), the 1 - SSIM structure term standing in for VGG19, and the
+# paper's light-field loss. Baselines on uieb-val: mean shift 20.96 dB, Reinhard 28.29 dB.
+#
+# Run from the repository root. The run folder lives outside the repository so it survives;
+# run the script again to resume (it passes --resume when the run folder has a checkpoint).
+# Needs the release binary with the tch feature:
+#   LIBTORCH_USE_PYTORCH=1 cargo build --release -p uwnr-cli --features tch
+set -euo pipefail
+DATA=${DATA:-../shared/data}
+RUN=${RUN:-/work/uwnr-runs/default-v1}
+DEVICE=${DEVICE:-tch}
+BIN=${BIN:-target/release/uwnr}
+export LIBTORCH_USE_PYTORCH=1
+if [ -z "${LIBTORCH:-}" ]; then
+  TORCH_LIB=$(python3 -c 'import os, torch; print(os.path.join(os.path.dirname(torch.__file__), "lib"))')
+  export LD_LIBRARY_PATH="$TORCH_LIB:${LD_LIBRARY_PATH:-}"
+fi
+mkdir -p "$(dirname "$RUN")"
+CONFIG="$RUN.config.json"
+cat > "$CONFIG" <<'JSON'
+{
+  "epochs": 30,
+  "batch_size": 6,
+  "crop": 192,
+  "seed": 41,
+  "light_field_loss": "paper",
+  "perceptual_fallback": "ssim",
+  "augment": {
+    "flip": true,
+    "rotate": true,
+    "color_cast": { "probability": 1.0, "gain": [0.5, 1.6], "gamma": [0.8, 1.25] }
+  },
+  "val_every_epochs": 2,
+  "val_sheet_pairs": 6,
+  "log_every_steps": 20,
+  "checkpoint_every_secs": 900
+}
+JSON
+ARGS=(train
+  --data "$DATA/paired/euvp-dark" "$DATA/paired/lsui" "$DATA/paired/lsui" "$DATA/paired/lsui"
+  --val "$DATA/paired/uieb-val"
+  --run "$RUN" --device "$DEVICE" --val-refs 20.96,28.29)
+if [ -f "$RUN/config.json" ]; then
+  exec "$BIN" "${ARGS[@]}" --resume
+else
+  exec "$BIN" "${ARGS[@]}" --config "$CONFIG"
+fi
