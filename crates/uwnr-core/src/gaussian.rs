@@ -144,42 +144,52 @@ pub fn cv_gaussian_blur_u8(src: &U8Image, sigma: f64) -> Result<U8Image> {
     }
     let xtaps = folded_taps(kx, w);
     let ytaps = folded_taps(ky, h);
-    let row_len = w * cn;
 
+    // Both passes run as "accumulate whole source rows into an output row", which vectorises;
+    // the horizontal pass does so on the transposed image (one row per column).
+    let columns = transpose_pixels(&src.data, w, h, cn); // [w][h * cn]
     // Horizontal pass: exact sums with 8 fractional bits (at most 255 * 256).
-    let mut horizontal = vec![0_u32; h * row_len];
-    horizontal
-        .par_chunks_mut(row_len)
-        .zip(src.data.par_chunks(row_len))
-        .for_each(|(dst, row)| {
-            for (x, taps) in xtaps.iter().enumerate() {
-                for c in 0..cn {
-                    dst[x * cn + c] = taps
-                        .iter()
-                        .map(|&(p, k)| k * u32::from(row[p * cn + c]))
-                        .sum();
-                }
-            }
-        });
-
+    let horizontal_t = accumulate_rows(&columns, h * cn, &xtaps); // [w][h * cn]
+    let horizontal = transpose_pixels(&horizontal_t, h, w, cn); // [h][w * cn]
     // Vertical pass: 16 fractional bits, rounded to u8.
+    let vertical = accumulate_rows(&horizontal, w * cn, &ytaps); // [h][w * cn]
     let round = 1_u32 << (SUM_BITS - 1);
-    let mut out = vec![0_u8; h * row_len];
+    let out = vertical
+        .iter()
+        .map(|&a| ((a + round) >> SUM_BITS).min(u32::from(u8::MAX)) as u8)
+        .collect();
+    U8Image::new(w, h, cn, out)
+}
+
+/// `out[i] = sum over (p, k) in taps[i] of k * rows[p]`, element-wise over rows of `row_len`.
+fn accumulate_rows<T>(rows: &[T], row_len: usize, taps: &[Vec<(usize, u32)>]) -> Vec<u32>
+where
+    T: Copy + Into<u32> + Sync,
+{
+    let mut out = vec![0_u32; taps.len() * row_len];
     out.par_chunks_mut(row_len)
-        .zip(ytaps.par_iter())
-        .for_each(|(dst, taps)| {
-            let mut acc = vec![0_u32; row_len];
+        .zip(taps.par_iter())
+        .for_each(|(acc, taps)| {
             for &(p, k) in taps {
-                let row = &horizontal[p * row_len..(p + 1) * row_len];
+                let row = &rows[p * row_len..(p + 1) * row_len];
                 for (a, &v) in acc.iter_mut().zip(row) {
-                    *a += k * v;
+                    *a += k * v.into();
                 }
             }
-            for (d, a) in dst.iter_mut().zip(acc) {
-                *d = ((a + round) >> SUM_BITS).min(u32::from(u8::MAX)) as u8;
-            }
         });
-    U8Image::new(w, h, cn, out)
+    out
+}
+
+/// Swaps the two spatial axes of interleaved `[h][w][cn]` data, giving `[w][h][cn]`.
+fn transpose_pixels<T: Copy + Default>(data: &[T], w: usize, h: usize, cn: usize) -> Vec<T> {
+    let mut out = vec![T::default(); data.len()];
+    for (y, row) in data.chunks_exact(w * cn).enumerate() {
+        for (x, px) in row.chunks_exact(cn).enumerate() {
+            let at = (x * h + y) * cn;
+            out[at..at + cn].copy_from_slice(px);
+        }
+    }
+    out
 }
 
 #[cfg(test)]

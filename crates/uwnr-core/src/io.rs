@@ -75,17 +75,19 @@ impl Default for DecodeLimits {
 }
 
 /// Decodes an image file into 3 channels (R, G, B) in [0, 1]. Grey images are replicated to
-/// three channels; alpha is dropped.
+/// three channels; alpha is dropped; EXIF orientation is applied. The header is checked against
+/// `limits` before any pixel is decoded ([`CoreError::TooLarge`],
+/// [`CoreError::DimensionTooLarge`]); unreadable content gives [`CoreError::Decode`].
 pub fn load_rgb(path: &Path, limits: &DecodeLimits) -> Result<Image> {
     let bytes = read_file(path)?;
     let decoded = decode(&bytes, path, limits)?;
-    Ok(to_planar(&decoded, Target::Rgb))
+    to_planar(&decoded, Target::Rgb)
 }
 
 /// Decodes an encoded image held in memory into 3 channels in [0, 1] (as [`load_rgb`]).
 pub fn load_rgb_from_memory(bytes: &[u8], limits: &DecodeLimits) -> Result<Image> {
     let decoded = decode(bytes, Path::new(MEMORY_SOURCE), limits)?;
-    Ok(to_planar(&decoded, Target::Rgb))
+    to_planar(&decoded, Target::Rgb)
 }
 
 /// Decodes an image file into 1 channel: the raw code value over the maximum code (8-bit `/255`,
@@ -93,7 +95,7 @@ pub fn load_rgb_from_memory(bytes: &[u8], limits: &DecodeLimits) -> Result<Image
 pub fn load_gray(path: &Path, limits: &DecodeLimits) -> Result<Image> {
     let bytes = read_file(path)?;
     let decoded = decode(&bytes, path, limits)?;
-    Ok(to_planar(&decoded, Target::Gray))
+    to_planar(&decoded, Target::Gray)
 }
 
 /// Saves a 3-channel image as 8-bit PNG or JPEG (quality [`JPEG_QUALITY`]), chosen by the
@@ -248,11 +250,13 @@ fn decode(bytes: &[u8], path: &Path, limits: &DecodeLimits) -> Result<DynamicIma
     };
     // First pass: the header only, without the `image` crate's allocation limit, so that an
     // oversized image is reported with its dimensions.
-    let (width, height) = reader(Limits::no_limits())?
+    let probe = reader(Limits::no_limits())?;
+    let format = probe.format();
+    let (width, height) = probe
         .into_dimensions()
         .map_err(|e| decode_error(path, e.to_string()))?;
     check_limits(path, width, height, limits)?;
-    if reader(Limits::no_limits())?.format() == Some(ImageFormat::Jpeg) {
+    if format == Some(ImageFormat::Jpeg) {
         check_jpeg_complete(bytes).map_err(|reason| decode_error(path, reason))?;
     }
 
@@ -377,7 +381,7 @@ enum Samples<'a> {
     F32(&'a [f32]),
 }
 
-fn to_planar(decoded: &DynamicImage, target: Target) -> Image {
+fn to_planar(decoded: &DynamicImage, target: Target) -> Result<Image> {
     let (w, h) = (decoded.width() as usize, decoded.height() as usize);
     // Variants this code does not know (the enum is non-exhaustive) go through RGBA f32.
     let converted;
@@ -428,7 +432,7 @@ fn to_planar(decoded: &DynamicImage, target: Target) -> Image {
                     l as f32 / f32::from(u8::MAX)
                 })
                 .collect();
-            planar(w, h, 1, data)
+            Image::from_planar(w, h, 1, data)
         }
         (target, colour, samples) => {
             let values: Vec<f32> = match samples {
@@ -471,14 +475,9 @@ fn to_planar(decoded: &DynamicImage, target: Target) -> Image {
                     (Target::Gray, _) => data[i] = p[0],
                 }
             }
-            planar(w, h, out_channels, data)
+            Image::from_planar(w, h, out_channels, data)
         }
     }
-}
-
-fn planar(w: usize, h: usize, channels: usize, data: Vec<f32>) -> Image {
-    debug_assert_eq!(data.len(), w * h * channels);
-    Image::from_planar(w, h, channels, data).unwrap_or_else(|_| Image::filled(w, h, channels, 0.0))
 }
 
 fn quantise_u8(v: f32) -> u8 {

@@ -27,6 +27,8 @@
 
 use std::sync::OnceLock;
 
+use rayon::prelude::*;
+
 use crate::error::{CoreError, Result};
 use crate::gaussian::cv_gaussian_blur_u8;
 use crate::image::Image;
@@ -81,10 +83,14 @@ pub fn light_field_raw_u8(img: &U8Image) -> Result<U8Image> {
     }
     let small = cv_resize_linear_scale_u8(img, LF_SCALE, LF_SCALE)?;
     let table = log10_u8_table();
+    let blurred = LF_SIGMAS
+        .par_iter()
+        .map(|&sigma| cv_gaussian_blur_u8(&small, sigma))
+        .collect::<Result<Vec<_>>>()?;
+    // Summed in the released order: ones + L(15) + L(60) + L(90).
     let mut luminance = vec![1.0_f64; small.data.len()];
-    for sigma in LF_SIGMAS {
-        let blurred = cv_gaussian_blur_u8(&small, sigma)?;
-        for (l, &v) in luminance.iter_mut().zip(&blurred.data) {
+    for b in &blurred {
+        for (l, &v) in luminance.iter_mut().zip(&b.data) {
             *l += table[usize::from(v)];
         }
     }

@@ -73,9 +73,12 @@ pub(crate) fn correlate_axis1(p: &PlaneF64, weights: &[f64]) -> PlaneF64 {
         for i in 0..w + 2 * r {
             padded.push(src[reflect(i as isize - r as isize, w)]);
         }
-        for (x, o) in dst.iter_mut().enumerate() {
-            let win = &padded[x..x + weights.len()];
-            *o = win.iter().zip(weights).map(|(a, b)| a * b).sum();
+        // Tap-major accumulation: the same summation order per output as a per-pixel dot
+        // product, but each pass runs along the row and vectorises.
+        for (k, &wt) in weights.iter().enumerate() {
+            for (o, s) in dst.iter_mut().zip(&padded[k..k + w]) {
+                *o += wt * s;
+            }
         }
     };
     if w * h >= PAR_MIN_PIXELS {

@@ -39,7 +39,10 @@ pub fn device_names() -> &'static [&'static str] {
 pub fn device_from_name(name: &str) -> Result<Device> {
     match name {
         "flex" => Ok(Device::flex()),
+        // burn 0.22 deprecates its libtorch backend; it stays here as an optional reference
+        // backend for speed and parity comparisons.
         #[cfg(feature = "tch")]
+        #[allow(deprecated)]
         "tch" => Ok(Device::libtorch()),
         _ => Err(ModelError::UnknownDevice {
             name: name.to_string(),

@@ -86,6 +86,16 @@ fn safetensors_fixture_matches_torch() {
     check_parity(&g, &device, "safetensors f16");
 }
 
+/// The same parity on libtorch (`--features tch`, with `LIBTORCH_USE_PYTORCH=1` and torch's
+/// `lib` directory on `LD_LIBRARY_PATH`).
+#[cfg(feature = "tch")]
+#[test]
+fn tch_device_matches_torch() {
+    let device = uwnr_model::device_from_name("tch").unwrap();
+    let (g, _, _) = load_generator(&fixture("parity_w8.safetensors"), &device).unwrap();
+    check_parity(&g, &device, "tch device");
+}
+
 #[test]
 fn authors_checkpoint_fixture_matches_torch() {
     let device = Device::flex();
