@@ -24,6 +24,8 @@ pub enum Command {
     Info(InfoArgs),
     /// Train the generator on paired folders (underwater/ + clean/), with exact resume.
     Train(TrainArgs),
+    /// Score images with the field's metrics (PSNR, SSIM, UIQM, UCIQE, FD, KID).
+    Eval(EvalArgs),
 }
 
 /// How clean images are paired with references when there are several.
@@ -92,9 +94,15 @@ pub struct RenderArgs {
     /// Clean images (files or directories of images).
     #[arg(required = true, value_name = "CLEAN")]
     pub clean: Vec<PathBuf>,
-    /// Real underwater reference images (files or directories) whose style is rendered.
-    #[arg(long, short = 'r', required = true, num_args = 1.., value_name = "REF")]
+    /// Real underwater reference images (files or directories) whose style is rendered
+    /// (needed by every method but jerlov and seathru with sampled or given coefficients).
+    #[arg(long, short = 'r', num_args = 1.., value_name = "REF")]
     pub reference: Vec<PathBuf>,
+    /// Rendering method: the UWNR network or a physical / statistical baseline.
+    #[arg(long, value_enum, default_value_t = MethodArg::Uwnr)]
+    pub method: MethodArg,
+    #[command(flatten)]
+    pub baseline: BaselineOpts,
     /// Output image file (one clean image, one reference) or output directory.
     #[arg(long, short = 'o', value_name = "PATH")]
     pub output: PathBuf,
@@ -111,6 +119,97 @@ pub struct RenderArgs {
     pub depth: DepthOpts,
     #[command(flatten)]
     pub model: ModelOpts,
+}
+
+/// Rendering methods.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum MethodArg {
+    /// The UWNR generator (neural rendering from the reference's light field).
+    Uwnr,
+    /// UWCNN's synthesis with the ten Jerlov water types (no reference needed).
+    Jerlov,
+    /// Reference-based physical model in the manner of Hou et al. 2020 (SUID).
+    Uisa,
+    /// The revised (Sea-thru) image formation model.
+    Seathru,
+    /// Reinhard et al. 2001 colour transfer from the reference.
+    Reinhard,
+}
+
+/// Where Sea-thru coefficients come from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum SeathruSource {
+    /// Sampled per image from the documented ranges.
+    Sampled,
+    /// Fitted from the reference image.
+    Reference,
+    /// Given with --beta-d, --beta-b and --b-inf.
+    Given,
+}
+
+/// Options of the physical and statistical baselines (ignored by `--method uwnr`).
+#[derive(Debug, Clone, Args)]
+pub struct BaselineOpts {
+    /// Full parameters of the baseline as JSON (e.g. `{"method":"jerlov","water_type":"3C"}`);
+    /// the flags below override what it sets.
+    #[arg(long, value_name = "FILE.json")]
+    pub method_config: Option<PathBuf>,
+    /// Jerlov water type (I, IA, IB, II, III, 1C, 3C, 5C, 7C, 9C); random per image if absent.
+    #[arg(long, value_name = "TYPE")]
+    pub water_type: Option<String>,
+    /// Range MIN,MAX (metres) that depth in [0,1] is scaled to, sampled per image.
+    #[arg(long, value_name = "MIN,MAX", value_parser = parse_range)]
+    pub depth_scale: Option<(f64, f64)>,
+    /// Range MIN,MAX (metres) of the background distance, sampled per image.
+    #[arg(long, value_name = "MIN,MAX", value_parser = parse_range)]
+    pub background_depth: Option<(f64, f64)>,
+    /// Where Sea-thru coefficients come from (default: reference when one is given, else sampled).
+    #[arg(long, value_enum)]
+    pub seathru: Option<SeathruSource>,
+    /// Sea-thru direct-signal attenuation R,G,B (1/m), with --seathru given.
+    #[arg(long, value_name = "R,G,B", value_parser = parse_triple)]
+    pub beta_d: Option<[f64; 3]>,
+    /// Sea-thru backscatter coefficient R,G,B (1/m), with --seathru given.
+    #[arg(long, value_name = "R,G,B", value_parser = parse_triple)]
+    pub beta_b: Option<[f64; 3]>,
+    /// Sea-thru veiling light R,G,B in [0,1], with --seathru given.
+    #[arg(long, value_name = "R,G,B", value_parser = parse_triple)]
+    pub b_inf: Option<[f64; 3]>,
+    /// Colour space of the Reinhard transfer: lalphabeta (the paper's) or lab (CIELAB).
+    #[arg(long, value_name = "SPACE")]
+    pub reinhard_space: Option<String>,
+}
+
+/// Parses `MIN,MAX`.
+pub fn parse_range(s: &str) -> Result<(f64, f64), String> {
+    let (a, b) = s
+        .split_once(',')
+        .ok_or_else(|| format!("expected MIN,MAX, got {s:?}"))?;
+    let a: f64 = a
+        .trim()
+        .parse()
+        .map_err(|_| format!("bad number in {s:?}"))?;
+    let b: f64 = b
+        .trim()
+        .parse()
+        .map_err(|_| format!("bad number in {s:?}"))?;
+    if !(a.is_finite() && b.is_finite() && a <= b) {
+        return Err(format!("expected finite MIN <= MAX, got {s:?}"));
+    }
+    Ok((a, b))
+}
+
+/// Parses `R,G,B`.
+pub fn parse_triple(s: &str) -> Result<[f64; 3], String> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|t| t.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("expected R,G,B numbers, got {s:?}"))?;
+    match v.as_slice() {
+        [r, g, b] if v.iter().all(|x| x.is_finite()) => Ok([*r, *g, *b]),
+        _ => Err(format!("expected three finite numbers R,G,B, got {s:?}")),
+    }
 }
 
 /// Image format written in directory mode.
@@ -236,13 +335,56 @@ pub struct TrainArgs {
     pub val_refs: Vec<f64>,
 }
 
+#[derive(Debug, Args)]
+pub struct EvalArgs {
+    /// Predictions (full-reference mode), paired with --target by file stem.
+    #[arg(
+        long,
+        value_name = "DIR",
+        requires = "target",
+        conflicts_with = "images"
+    )]
+    pub pred: Option<PathBuf>,
+    /// Targets (full-reference mode).
+    #[arg(long, value_name = "DIR", requires = "pred")]
+    pub target: Option<PathBuf>,
+    /// Images to score without reference (UIQM, UCIQE; distances with --real).
+    #[arg(long, value_name = "DIR")]
+    pub images: Option<PathBuf>,
+    /// Real images to compare the --images set with (Frechet distance and KID).
+    #[arg(long, value_name = "DIR", requires = "images")]
+    pub real: Option<PathBuf>,
+    /// InceptionV3 ONNX model (pool3 output) for FID/KID; without it the built-in
+    /// colour-texture features are used (reported as FD-ct / KID-ct, not FID).
+    #[arg(long, value_name = "FILE.onnx", requires = "real")]
+    pub inception: Option<PathBuf>,
+    /// PSNR and SSIM on luma (ITU-R BT.601) instead of RGB.
+    #[arg(long)]
+    pub gray: bool,
+    /// Seed for KID's subset sampling.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Write means, set metrics and per-image scores as JSON.
+    #[arg(long, value_name = "FILE")]
+    pub json: Option<PathBuf>,
+    /// Write per-image scores as CSV.
+    #[arg(long, value_name = "FILE")]
+    pub csv: Option<PathBuf>,
+}
+
 /// Parses `WxH` (e.g. `640x480`).
 pub fn parse_size(s: &str) -> Result<(usize, usize), String> {
     let (w, h) = s
         .split_once(['x', 'X'])
         .ok_or_else(|| format!("expected WxH, got {s:?}"))?;
-    let w: usize = w.trim().parse().map_err(|_| format!("bad width in {s:?}"))?;
-    let h: usize = h.trim().parse().map_err(|_| format!("bad height in {s:?}"))?;
+    let w: usize = w
+        .trim()
+        .parse()
+        .map_err(|_| format!("bad width in {s:?}"))?;
+    let h: usize = h
+        .trim()
+        .parse()
+        .map_err(|_| format!("bad height in {s:?}"))?;
     if w == 0 || h == 0 {
         return Err(format!("size must be positive, got {s:?}"));
     }

@@ -41,7 +41,8 @@ pub fn expand_images(paths: &[PathBuf], what: &str) -> Result<Vec<PathBuf>> {
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Job {
     pub clean: usize,
-    pub reference: usize,
+    /// `None` for methods that need no reference when none was given.
+    pub reference: Option<usize>,
     pub output: PathBuf,
 }
 
@@ -53,6 +54,7 @@ fn stem(p: &Path) -> String {
 
 /// Pairs clean images with references and names outputs inside `out_dir`.
 /// Names are `STEM.EXT` (or `STEM__REFSTEM.EXT` with `--pairing all`); a repeated name gets `-2`, `-3`...
+/// With no references every clean image gets one job without a reference.
 pub fn plan_jobs(
     cleans: &[PathBuf],
     refs: &[PathBuf],
@@ -62,23 +64,27 @@ pub fn plan_jobs(
     ext: &str,
 ) -> Vec<Job> {
     let mut pairs = Vec::new();
-    match pairing {
-        Pairing::Cycle => {
-            for i in 0..cleans.len() {
-                pairs.push((i, i % refs.len()));
-            }
-        }
-        Pairing::All => {
-            for i in 0..cleans.len() {
-                for j in 0..refs.len() {
-                    pairs.push((i, j));
+    if refs.is_empty() {
+        pairs.extend((0..cleans.len()).map(|i| (i, None)));
+    } else {
+        match pairing {
+            Pairing::Cycle => {
+                for i in 0..cleans.len() {
+                    pairs.push((i, Some(i % refs.len())));
                 }
             }
-        }
-        Pairing::Random => {
-            let mut rng = ChaCha8Rng::seed_from_u64(seed);
-            for i in 0..cleans.len() {
-                pairs.push((i, rng.random_range(0..refs.len())));
+            Pairing::All => {
+                for i in 0..cleans.len() {
+                    for j in 0..refs.len() {
+                        pairs.push((i, Some(j)));
+                    }
+                }
+            }
+            Pairing::Random => {
+                let mut rng = ChaCha8Rng::seed_from_u64(seed);
+                for i in 0..cleans.len() {
+                    pairs.push((i, Some(rng.random_range(0..refs.len()))));
+                }
             }
         }
     }
@@ -86,8 +92,8 @@ pub fn plan_jobs(
     pairs
         .into_iter()
         .map(|(i, j)| {
-            let base = match pairing {
-                Pairing::All => format!("{}__{}", stem(&cleans[i]), stem(&refs[j])),
+            let base = match (pairing, j) {
+                (Pairing::All, Some(j)) => format!("{}__{}", stem(&cleans[i]), stem(&refs[j])),
                 _ => stem(&cleans[i]),
             };
             let n = seen.entry(base.clone()).or_insert(0);
@@ -125,9 +131,23 @@ mod tests {
             "png",
         );
         let got: Vec<_> = jobs.iter().map(|j| (j.clean, j.reference)).collect();
-        assert_eq!(got, vec![(0, 0), (1, 1), (2, 0)]);
+        assert_eq!(got, vec![(0, Some(0)), (1, Some(1)), (2, Some(0))]);
         assert_eq!(jobs[0].output, Path::new("out/x.png"));
         assert_eq!(jobs[1].output, Path::new("out/x-2.png"));
+    }
+
+    #[test]
+    fn no_references_give_one_job_per_clean_image() {
+        let jobs = plan_jobs(
+            &paths(&["x.jpg", "y.jpg"]),
+            &[],
+            Pairing::All,
+            0,
+            Path::new("o"),
+            "png",
+        );
+        assert_eq!(jobs.len(), 2);
+        assert!(jobs.iter().all(|j| j.reference.is_none()));
     }
 
     #[test]

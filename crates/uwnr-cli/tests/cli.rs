@@ -88,7 +88,10 @@ fn batch_renders_the_rest_and_lists_failures() {
         "jpg",
     ]);
     let err = stderr(&o);
-    assert!(!o.status.success(), "a failed item must make the exit non-zero");
+    assert!(
+        !o.status.success(),
+        "a failed item must make the exit non-zero"
+    );
     assert!(err.contains("b.png"), "failure not listed: {err}");
     assert_eq!(files_in(&out), vec!["a.jpg", "c.jpg"]);
 }
@@ -206,7 +209,12 @@ fn unwritable_output_fails_cleanly() {
 fn lightfield_and_depth_commands_write_maps() {
     let dir = tempfile::tempdir().unwrap();
     let lf = dir.path().join("lf.png");
-    let o = uwnr(&["lightfield", s(&sample("ref-green.png")), "--output", s(&lf)]);
+    let o = uwnr(&[
+        "lightfield",
+        s(&sample("ref-green.png")),
+        "--output",
+        s(&lf),
+    ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let img = image::open(&lf).unwrap();
     assert_eq!((img.width(), img.height()), (256, 256));

@@ -17,6 +17,9 @@
 //! position into one weight per source pixel: the result is unchanged and a 541-tap kernel on a
 //! 77-pixel row costs 77 multiply-adds per output instead of 541.
 
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex, OnceLock};
+
 use rayon::prelude::*;
 
 use crate::error::{CoreError, Result};
@@ -87,15 +90,40 @@ pub fn cv_gaussian_kernel_fixed(sigma: f64) -> Vec<u32> {
 
 /// OpenCV's `borderInterpolate(p, len, BORDER_REFLECT_101)`, repeated until inside.
 #[must_use]
-pub fn reflect101(mut p: i64, len: usize) -> usize {
+pub fn reflect101(p: i64, len: usize) -> usize {
     let len = len as i64;
     if len == 1 {
         return 0;
     }
-    while p < 0 || p >= len {
-        p = if p < 0 { -p } else { 2 * len - 2 - p };
+    // Reflection about 0 and len - 1 repeats with period 2 (len - 1).
+    let period = 2 * (len - 1);
+    let p = p.rem_euclid(period);
+    (if p >= len { period - p } else { p }) as usize
+}
+
+/// Folded taps per output position, keyed by (sigma bits, length).
+type TapCache = HashMap<(u64, usize), Arc<Vec<Vec<(usize, u32)>>>>;
+
+/// Most folded tap tables kept (the light field uses three).
+const TAP_CACHE_CAPACITY: usize = 32;
+
+/// [`folded_taps`] of the fixed kernel of `sigma` over a side of `len`, cached: the light-field
+/// map blurs images of the same size with the same three sigmas over and over.
+fn cached_taps(sigma: f64, len: usize) -> Arc<Vec<Vec<(usize, u32)>>> {
+    static CACHE: OnceLock<Mutex<TapCache>> = OnceLock::new();
+    let cache = CACHE.get_or_init(|| Mutex::new(HashMap::new()));
+    let key = (sigma.to_bits(), len);
+    if let Some(taps) = cache.lock().ok().and_then(|c| c.get(&key).cloned()) {
+        return taps;
     }
-    p as usize
+    let taps = Arc::new(folded_taps(&cv_gaussian_kernel_fixed(sigma), len));
+    if let Ok(mut c) = cache.lock() {
+        if c.len() >= TAP_CACHE_CAPACITY {
+            c.clear();
+        }
+        c.insert(key, Arc::clone(&taps));
+    }
+    taps
 }
 
 /// The taps of each output position with reflected indices folded together: for output `x`,
@@ -134,16 +162,22 @@ pub fn cv_gaussian_blur_u8(src: &U8Image, sigma: f64) -> Result<U8Image> {
             height: h,
         });
     }
-    let kernel = cv_gaussian_kernel_fixed(sigma);
-    // OpenCV drops the kernel along a side of length 1 (`ksize.width = 1` when `width == 1`).
-    let unit = [1_u32 << KERNEL_BITS];
-    let kx: &[u32] = if w == 1 { &unit } else { &kernel };
-    let ky: &[u32] = if h == 1 { &unit } else { &kernel };
+    // OpenCV drops the kernel along a side of length 1 (`ksize.width = 1` when `width == 1`),
+    // which leaves that side unchanged: a single tap of weight 1 (256 in fixed point).
     if w == 1 && h == 1 {
         return Ok(src.clone());
     }
-    let xtaps = folded_taps(kx, w);
-    let ytaps = folded_taps(ky, h);
+    let unit = || Arc::new(vec![vec![(0, 1_u32 << KERNEL_BITS)]]);
+    let xtaps = if w == 1 {
+        unit()
+    } else {
+        cached_taps(sigma, w)
+    };
+    let ytaps = if h == 1 {
+        unit()
+    } else {
+        cached_taps(sigma, h)
+    };
 
     // Both passes run as "accumulate whole source rows into an output row", which vectorises;
     // the horizontal pass does so on the transposed image (one row per column).

@@ -66,11 +66,13 @@ impl U8Image {
     /// Quantises an [`Image`] with the round-half-up rule `(v * 255 + 0.5).clamp(0, 255)`.
     #[must_use]
     pub fn from_image(img: &Image) -> Self {
-        let data = img
-            .to_interleaved()
-            .iter()
-            .map(|&v| (v * 255.0 + 0.5).clamp(0.0, 255.0) as u8)
-            .collect();
+        let (n, cn) = (img.width() * img.height(), img.channels());
+        let mut data = vec![0_u8; n * cn];
+        for c in 0..cn {
+            for (i, &v) in img.plane(c).iter().enumerate() {
+                data[i * cn + c] = (v * 255.0 + 0.5).clamp(0.0, 255.0) as u8;
+            }
+        }
         Self {
             width: img.width(),
             height: img.height(),

@@ -24,7 +24,7 @@ pub const INPUT_CHANNELS: usize = 7;
 /// Channels of the target.
 pub const TARGET_CHANNELS: usize = 3;
 /// Stream tag of the per-epoch data order.
-const STREAM_ORDER: u64 = 0x6f72_6465_72; // "order"
+const STREAM_ORDER: u64 = 0x006f_7264_6572; // "order"
 /// Stream tag of the per-sample augmentation.
 const STREAM_SAMPLE: u64 = 0x7361_6d70_6c65; // "sample"
 

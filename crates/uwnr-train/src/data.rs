@@ -142,10 +142,11 @@ fn list_images(dir: &Path) -> Result<BTreeMap<String, PathBuf>> {
     let mut out = BTreeMap::new();
     for entry in std::fs::read_dir(dir).map_err(io_err)? {
         let path = entry.map_err(io_err)?.path();
-        if path.is_file() && is_image_path(&path) {
-            if let Some(name) = path.file_name().and_then(|n| n.to_str()) {
-                out.insert(name.to_string(), path.clone());
-            }
+        if path.is_file()
+            && is_image_path(&path)
+            && let Some(name) = path.file_name().and_then(|n| n.to_str())
+        {
+            out.insert(name.to_string(), path.clone());
         }
     }
     Ok(out)

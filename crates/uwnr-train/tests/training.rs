@@ -70,10 +70,10 @@ fn run(
 ) -> uwnr_train::TrainSummary {
     let stop = AtomicBool::new(false);
     train(cfg, opts, &stop, &mut |e| {
-        if let (Event::Step { step, .. }, Some(n)) = (e, stop_after) {
-            if step >= n {
-                stop.store(true, Ordering::Relaxed);
-            }
+        if let (Event::Step { step, .. }, Some(n)) = (e, stop_after)
+            && step >= n
+        {
+            stop.store(true, Ordering::Relaxed);
         }
     })
     .unwrap()

@@ -34,7 +34,9 @@ pub fn run(a: &InfoArgs) -> Result<ExitCode> {
         (config, None)
     };
     if source.is_none() {
-        println!("weights:     none (this build has no bundled model; describing the architecture)");
+        println!(
+            "weights:     none (this build has no bundled model; describing the architecture)"
+        );
     }
     println!(
         "architecture: MHB-Unet, base width {}, {} -> {} channels",

@@ -1,8 +1,10 @@
 //! One module per subcommand; shared pieces (model and depth set-up) live here.
 
 mod depth;
+mod eval;
 mod info;
 mod lightfield;
+mod method;
 mod render;
 mod train;
 
@@ -23,6 +25,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
         Command::Depth(a) => depth::run(&a),
         Command::Info(a) => info::run(&a),
         Command::Train(a) => train::run(&a),
+        Command::Eval(a) => eval::run(&a),
     }
 }
 

@@ -1,30 +1,60 @@
 //! `uwnr render`: clean photos + real underwater references -> underwater renders, at each clean
-//! image's own resolution.
+//! image's own resolution, with the UWNR network (default) or a physical / statistical baseline.
 
 use std::collections::HashMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::ExitCode;
 
 use anyhow::{Context, Result, anyhow, bail};
+use uwnr_baselines::{Method, RenderInput};
 use uwnr_core::Image;
 use uwnr_core::io::{DecodeLimits, is_image_path, load_rgb, save_rgb};
 use uwnr_core::lightfield::light_field;
 use uwnr_core::resize::resize_bilinear;
-use uwnr_model::RenderOptions;
+use uwnr_model::{Device, Generator, RenderOptions};
 
 use crate::cli::RenderArgs;
 use crate::inputs::{Job, expand_images, plan_jobs};
 use crate::report::Batch;
 
+/// What renders each job.
+enum Renderer {
+    Network {
+        generator: Box<Generator>,
+        opts: RenderOptions,
+        device: Device,
+    },
+    Baseline {
+        method: Method,
+        seed: u64,
+    },
+}
+
+/// The per-reference input a renderer needs, computed once per reference.
+enum RefInput {
+    /// The 256x256 light field map (UWNR).
+    Field(Image),
+    /// The decoded reference (baselines).
+    Image(Image),
+}
+
 pub fn run(a: &RenderArgs) -> Result<ExitCode> {
     let cleans = expand_images(&a.clean, "clean")?;
-    let refs = expand_images(&a.reference, "reference")?;
+    let refs = if a.reference.is_empty() {
+        Vec::new()
+    } else {
+        expand_images(&a.reference, "reference")?
+    };
+    let baseline = super::method::baseline_method(a.method, &a.baseline, !refs.is_empty())?;
+    if baseline.is_none() && refs.is_empty() {
+        bail!("--method uwnr needs --reference (a real underwater image whose style is rendered)");
+    }
 
-    let single_file = cleans.len() == 1 && refs.len() == 1 && is_image_path(&a.output);
+    let single_file = cleans.len() == 1 && refs.len() <= 1 && is_image_path(&a.output);
     let jobs: Vec<Job> = if single_file {
         vec![Job {
             clean: 0,
-            reference: 0,
+            reference: (!refs.is_empty()).then_some(0),
             output: a.output.clone(),
         }]
     } else {
@@ -49,41 +79,61 @@ pub fn run(a: &RenderArgs) -> Result<ExitCode> {
         )
     };
 
-    let device = super::device(a.model.device)?;
-    let (generator, _config, _info, _source) = super::load_model(a.model.weights.as_deref(), &device)?;
+    let renderer = match baseline {
+        Some(method) => Renderer::Baseline {
+            method,
+            seed: a.seed,
+        },
+        None => {
+            let device = super::device(a.model.device)?;
+            let (generator, _config, _info, _source) =
+                super::load_model(a.model.weights.as_deref(), &device)?;
+            Renderer::Network {
+                generator: Box::new(generator),
+                opts: RenderOptions {
+                    max_tile_pixels: a.model.max_whole_pixels,
+                    tile: a.model.tile,
+                    overlap: a.model.overlap,
+                },
+                device,
+            }
+        }
+    };
     let prepared = super::depth_source(&a.depth)
         .prepare()
         .context("preparing the depth source")?;
-    let opts = RenderOptions {
-        max_tile_pixels: a.model.max_whole_pixels,
-        tile: a.model.tile,
-        overlap: a.model.overlap,
-    };
 
     let limits = DecodeLimits::default();
-    // Each reference's light field is computed once (at the 256x256 scale the network was trained
-    // with) and resized to every clean image that uses it.
-    let mut fields: HashMap<usize, std::result::Result<Image, String>> = HashMap::new();
+    // Each reference is decoded (and its light field computed) once, then reused by every
+    // clean image paired with it.
+    let mut ref_inputs: HashMap<usize, std::result::Result<RefInput, String>> = HashMap::new();
     let mut batch = Batch::new(jobs.len(), "rendering");
-    for job in &jobs {
+    for (index, job) in jobs.iter().enumerate() {
         let clean_path = &cleans[job.clean];
-        let ref_path = &refs[job.reference];
-        let field = fields
-            .entry(job.reference)
-            .or_insert_with(|| reference_field(ref_path, &limits).map_err(|e| format!("{e:#}")));
-        let result = match field {
-            Ok(field) => render_one(
+        let reference = match job.reference {
+            Some(r) => Some(
+                ref_inputs
+                    .entry(r)
+                    .or_insert_with(|| {
+                        reference_input(&refs[r], &renderer, &limits).map_err(|e| format!("{e:#}"))
+                    })
+                    .as_ref()
+                    .map_err(|msg| anyhow!("{msg}")),
+            ),
+            None => None,
+        };
+        let result = match reference.transpose() {
+            Ok(r) => render_one(
                 clean_path,
-                field,
+                r,
                 &job.output,
                 &prepared,
-                &generator,
-                &opts,
-                &device,
+                &renderer,
+                index,
                 &limits,
                 &batch,
             ),
-            Err(msg) => Err(anyhow!("{msg}")),
+            Err(e) => Err(e),
         };
         match result {
             Ok(()) => batch.ok(),
@@ -101,21 +151,35 @@ pub fn run(a: &RenderArgs) -> Result<ExitCode> {
     })
 }
 
-fn reference_field(path: &Path, limits: &DecodeLimits) -> Result<Image> {
+fn reference_input(path: &Path, renderer: &Renderer, limits: &DecodeLimits) -> Result<RefInput> {
     let reference =
         load_rgb(path, limits).with_context(|| format!("reading reference {}", path.display()))?;
-    light_field(&reference).with_context(|| format!("light field of {}", path.display()))
+    Ok(match renderer {
+        Renderer::Network { .. } => RefInput::Field(
+            light_field(&reference)
+                .with_context(|| format!("light field of {}", path.display()))?,
+        ),
+        Renderer::Baseline { .. } => RefInput::Image(reference),
+    })
+}
+
+/// A per-item seed: the run's seed mixed with the item's index (SplitMix64), so every image
+/// draws its own parameters and the batch is reproducible.
+fn item_seed(seed: u64, index: usize) -> u64 {
+    let mut z = seed ^ (index as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
 }
 
 #[allow(clippy::too_many_arguments)]
 fn render_one(
-    clean_path: &PathBuf,
-    field: &Image,
+    clean_path: &Path,
+    reference: Option<&RefInput>,
     output: &Path,
     depth: &uwnr_depth::PreparedDepth,
-    generator: &uwnr_model::Generator,
-    opts: &RenderOptions,
-    device: &uwnr_model::Device,
+    renderer: &Renderer,
+    index: usize,
     limits: &DecodeLimits,
     batch: &Batch,
 ) -> Result<()> {
@@ -124,8 +188,35 @@ fn render_one(
     for n in &depth.notes {
         batch.note(&format!("note: {}: {n}", clean_path.display()));
     }
-    let lf = resize_bilinear(field, clean.width(), clean.height())?;
-    let out = uwnr_model::render(generator, &clean, &depth.map, &lf, opts, device).context("rendering")?;
+    let out = match (renderer, reference) {
+        (
+            Renderer::Network {
+                generator,
+                opts,
+                device,
+            },
+            Some(RefInput::Field(field)),
+        ) => {
+            let lf = resize_bilinear(field, clean.width(), clean.height())?;
+            uwnr_model::render(generator, &clean, &depth.map, &lf, opts, device)
+                .context("rendering")?
+        }
+        (Renderer::Baseline { method, seed }, reference) => {
+            let reference = match reference {
+                Some(RefInput::Image(img)) => Some(img),
+                _ => None,
+            };
+            let input = RenderInput {
+                clean: &clean,
+                depth: &depth.map,
+                reference,
+            };
+            uwnr_baselines::render(method, &input, item_seed(*seed, index))
+                .with_context(|| format!("rendering with {}", method.name()))?
+                .image
+        }
+        (Renderer::Network { .. }, _) => bail!("the network needs a reference"),
+    };
     save_rgb(output, &out).with_context(|| format!("writing {}", output.display()))?;
     Ok(())
 }
