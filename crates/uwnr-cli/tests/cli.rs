@@ -61,8 +61,8 @@ fn renders_one_file_at_the_clean_images_size() {
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let img = image::open(&out).unwrap();
-    // 481x321 is not a multiple of 16: padded for the network, cropped back.
-    assert_eq!((img.width(), img.height()), (481, 321));
+    // 321x481 is not a multiple of 16: padded for the network, cropped back.
+    assert_eq!((img.width(), img.height()), (321, 481));
     assert_eq!(files_in(dir.path()), vec!["out.png"]);
 }
 
@@ -239,7 +239,7 @@ fn lightfield_and_depth_commands_write_maps() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(stderr(&o).contains("resized"), "{}", stderr(&o));
     let img = image::open(&d2).unwrap();
-    assert_eq!((img.width(), img.height()), (481, 321));
+    assert_eq!((img.width(), img.height()), (321, 481));
 }
 
 #[test]
@@ -248,4 +248,154 @@ fn info_reports_the_paper_parameter_count() {
     assert!(o.status.success(), "{}", stderr(&o));
     let text = String::from_utf8_lossy(&o.stdout);
     assert!(text.contains("11569271"), "{text}");
+}
+
+#[test]
+fn baselines_render_without_the_network() {
+    let dir = tempfile::tempdir().unwrap();
+    // jerlov needs no reference; the same seed gives the same image, another seed another water.
+    let render = |seed: &str, name: &str| {
+        let out = dir.path().join(name);
+        let o = uwnr(&[
+            "render",
+            s(&sample("clean-statues.jpg")),
+            "--method",
+            "jerlov",
+            "--seed",
+            seed,
+            "--output",
+            s(&out),
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        image::open(&out).unwrap().to_rgb8()
+    };
+    let a = render("1", "a.png");
+    let b = render("1", "b.png");
+    let c = render("2", "c.png");
+    assert_eq!(a.dimensions(), (321, 481));
+    assert_eq!(a, b);
+    assert_ne!(a, c);
+
+    for method in ["uisa", "seathru", "reinhard"] {
+        let out = dir.path().join(format!("{method}.png"));
+        let o = uwnr(&[
+            "render",
+            s(&sample("clean-room.jpg")),
+            "--reference",
+            s(&sample("ref-green.png")),
+            "--method",
+            method,
+            "--output",
+            s(&out),
+        ]);
+        assert!(o.status.success(), "{method}: {}", stderr(&o));
+        let img = image::open(&out).unwrap();
+        assert_eq!((img.width(), img.height()), (640, 480), "{method}");
+    }
+
+    // A reference-based method without a reference is a clear error.
+    let o = uwnr(&[
+        "render",
+        s(&sample("clean-room.jpg")),
+        "--method",
+        "uisa",
+        "--output",
+        s(&dir.path().join("x.png")),
+    ]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("needs --reference"), "{}", stderr(&o));
+}
+
+#[test]
+fn eval_scores_pairs_and_reports_missing_partners() {
+    let dir = tempfile::tempdir().unwrap();
+    let pred = dir.path().join("pred");
+    let target = dir.path().join("target");
+    std::fs::create_dir_all(&pred).unwrap();
+    std::fs::create_dir_all(&target).unwrap();
+    // Identical pair, a pair whose prediction is shifted by a constant, a target without a
+    // prediction, and an unreadable prediction.
+    let img = image::open(sample("ref-green.png")).unwrap().to_rgb8();
+    img.save(pred.join("same.png")).unwrap();
+    img.save(target.join("same.png")).unwrap();
+    let mut shifted = img.clone();
+    for p in shifted.pixels_mut() {
+        for c in p.0.iter_mut() {
+            *c = c.saturating_add(10);
+        }
+    }
+    shifted.save(pred.join("shift.png")).unwrap();
+    img.save(target.join("shift.png")).unwrap();
+    img.save(target.join("lonely.png")).unwrap();
+    std::fs::write(pred.join("broken.png"), b"nope").unwrap();
+    img.save(target.join("broken.png")).unwrap();
+
+    let json = dir.path().join("scores.json");
+    let csv = dir.path().join("scores.csv");
+    let o = uwnr(&[
+        "eval",
+        "--pred",
+        s(&pred),
+        "--target",
+        s(&target),
+        "--json",
+        s(&json),
+        "--csv",
+        s(&csv),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(err.contains("lonely"), "{err}");
+    assert!(err.contains("broken"), "{err}");
+    let doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(doc["count"], 2);
+    let images = doc["images"].as_array().unwrap();
+    let shift = images.iter().find(|r| r["image"] == "shift").unwrap();
+    let psnr = shift["scores"]["psnr"].as_f64().unwrap();
+    // Most pixels move by exactly 10/255; saturation near 255 makes a few move less.
+    assert!(psnr > 28.1 && psnr < 35.0, "psnr {psnr}");
+    let same = images.iter().find(|r| r["image"] == "same").unwrap();
+    assert_eq!(same["scores"]["ssim"].as_f64().unwrap(), 1.0);
+    let text = std::fs::read_to_string(&csv).unwrap();
+    assert!(text.starts_with("image,psnr,ssim,uiqm,uciqe"), "{text}");
+    assert_eq!(text.lines().count(), 3);
+}
+
+#[test]
+fn eval_without_reference_reports_set_distances() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = dir.path().join("a");
+    let b = dir.path().join("b");
+    std::fs::create_dir_all(&a).unwrap();
+    std::fs::create_dir_all(&b).unwrap();
+    for (i, name) in ["clean-statues.jpg", "clean-room.jpg", "ref-blue.jpg"]
+        .iter()
+        .enumerate()
+    {
+        std::fs::copy(sample(name), a.join(format!("{i}.jpg"))).unwrap();
+    }
+    for (i, name) in ["ref-green.png", "ref-blue.jpg", "clean-room.jpg"]
+        .iter()
+        .enumerate()
+    {
+        std::fs::copy(sample(name), b.join(format!("{i}.{}", &name[name.len() - 3..]))).unwrap();
+    }
+    let json = dir.path().join("s.json");
+    let o = uwnr(&[
+        "eval",
+        "--images",
+        s(&a),
+        "--real",
+        s(&b),
+        "--json",
+        s(&json),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let fd = doc["sets"]["fd_ct"].as_f64().unwrap();
+    assert!(fd.is_finite() && fd > 0.0, "{fd}");
+    assert!(doc["sets"].get("fid").is_none(), "built-in features must not be called FID");
+    assert!(doc["mean"]["uiqm"].as_f64().unwrap().is_finite());
 }

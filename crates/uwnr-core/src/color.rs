@@ -180,10 +180,12 @@ pub fn rgb_to_lalphabeta_px(rgb: [f64; 3], floor: f64) -> [f64; 3] {
 /// Inverse of [`rgb_to_lalphabeta_px`] (RGB not clipped).
 #[must_use]
 pub fn lalphabeta_to_rgb_px(lab: [f64; 3]) -> [f64; 3] {
+    // The exact inverse of LMS_FROM_RGB: the paper's printed 4-decimal inverse is off by up to
+    // 0.7%, which would make a self-transfer change the image.
     const RGB_FROM_LMS: [[f64; 3]; 3] = [
-        [4.4679, -3.5873, 0.1193],
-        [-1.2186, 2.3809, -0.1624],
-        [0.0497, -0.2439, 1.2045],
+        [4.468669863496255, -3.5886759034721267, 0.11960436657860116],
+        [-1.2197166276177631, 2.3830879129554567, -0.16263011175140055],
+        [0.058508476938545856, -0.2610784390276937, 1.205665908525623],
     ];
     let s3 = 3f64.sqrt();
     let s6 = 6f64.sqrt();
