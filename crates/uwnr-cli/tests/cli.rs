@@ -379,7 +379,11 @@ fn eval_without_reference_reports_set_distances() {
         .iter()
         .enumerate()
     {
-        std::fs::copy(sample(name), b.join(format!("{i}.{}", &name[name.len() - 3..]))).unwrap();
+        std::fs::copy(
+            sample(name),
+            b.join(format!("{i}.{}", &name[name.len() - 3..])),
+        )
+        .unwrap();
     }
     let json = dir.path().join("s.json");
     let o = uwnr(&[
@@ -396,6 +400,9 @@ fn eval_without_reference_reports_set_distances() {
         serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     let fd = doc["sets"]["fd_ct"].as_f64().unwrap();
     assert!(fd.is_finite() && fd > 0.0, "{fd}");
-    assert!(doc["sets"].get("fid").is_none(), "built-in features must not be called FID");
+    assert!(
+        doc["sets"].get("fid").is_none(),
+        "built-in features must not be called FID"
+    );
     assert!(doc["mean"]["uiqm"].as_f64().unwrap().is_finite());
 }

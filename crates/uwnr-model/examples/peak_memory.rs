@@ -44,7 +44,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let secs = t.elapsed().as_secs_f64();
     let peak = vm_hwm_kib().unwrap_or(0);
     println!(
-        "render {w}x{h} width {width}: {secs:.1} s, output {}x{}, VmHWM {:.0} MiB (inputs + weights before render: {:.0} MiB)",
+        "render {w}x{h} width {width}: {secs:.1} s, output {}x{}, VmHWM {:.0} MiB (before the render, with the inputs: {:.0} MiB)",
         out.width(),
         out.height(),
         peak as f64 / 1024.0,

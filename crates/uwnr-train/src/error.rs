@@ -14,6 +14,11 @@ pub enum TrainError {
     /// A config file could not be parsed.
     #[error("{path:?}: not a valid training config: {reason}")]
     Config { path: PathBuf, reason: String },
+    /// `--resume` was given a config that differs from the run's own.
+    #[error(
+        "{path:?}: the run was started with another config (a resumed run keeps its config.json)"
+    )]
+    ConfigChanged { path: PathBuf },
     /// Reading or writing a file failed.
     #[error("{path:?}: {source}")]
     Io {

@@ -33,6 +33,8 @@ const TERM_COLOURS: [Rgb<u8>; 5] = [
     Rgb([204, 121, 167]),
     Rgb([0, 0, 0]),
 ];
+/// Legend names of the loss terms (as in `metrics.csv`).
+const TERM_NAMES: [&str; 5] = ["L1", "PERCEPTUAL", "DARK CHANNEL", "LIGHT FIELD", "TOTAL"];
 /// Colour of the validation PSNR curve.
 const VAL_COLOUR: Rgb<u8> = Rgb([213, 94, 0]);
 /// Colour of the reference lines on the validation panel.
@@ -77,9 +79,18 @@ pub fn draw_curves(
     let (lo, hi) = bounds(finite);
     let panel = Panel::new(0, (0.0, max_step), (lo, hi));
     panel.frame(&mut img, "LOSS LOG10", |v| format!("{:.2}", 10f64.powf(v)));
-    for term in 0..5 {
+    let mut legend_x = panel.x0 + panel.w;
+    for term in (0..5).rev() {
         let pts: Vec<(f64, f64)> = logs.iter().map(|(s, v)| (*s, v[term])).collect();
         panel.polyline(&mut img, &pts, TERM_COLOURS[term]);
+        legend_x -= text_width(TERM_NAMES[term]) + 12;
+        draw_text(
+            &mut img,
+            legend_x,
+            panel.y0 - 16,
+            TERM_NAMES[term],
+            TERM_COLOURS[term],
+        );
     }
     // Validation panel.
     let (lo, hi) = bounds(val.iter().map(|p| p.1).chain(refs.iter().copied()));
@@ -176,7 +187,7 @@ impl Panel {
         line(img, (l, t), (l, b), BLACK);
         line(img, (r, t), (r, b), BLACK);
         draw_text(img, l, t - 16, title, BLACK);
-        draw_text(img, r - text_width("STEP"), b + 6, "STEP", BLACK);
+        draw_text(img, self.x0 + self.w * 3 / 4, b + 6, "STEP", BLACK);
     }
 
     fn polyline(&self, img: &mut RgbImage, pts: &[(f64, f64)], colour: Rgb<u8>) {
@@ -250,7 +261,12 @@ fn glyph(ch: char) -> [u8; 5] {
         '+' => [0, 2, 7, 2, 0],
         'A' => [2, 5, 7, 5, 5],
         'B' => [6, 5, 6, 5, 6],
+        'C' => [7, 4, 4, 4, 7],
         'D' => [6, 5, 5, 5, 6],
+        'F' => [7, 4, 6, 4, 4],
+        'H' => [5, 5, 7, 5, 5],
+        'U' => [5, 5, 5, 5, 7],
+        'K' => [5, 5, 6, 5, 5],
         'E' => [7, 4, 6, 4, 7],
         'G' => [7, 4, 5, 5, 7],
         'I' => [7, 2, 2, 2, 7],

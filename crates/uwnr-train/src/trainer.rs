@@ -591,10 +591,7 @@ fn prepare_run_dir(cfg: &TrainConfig, run: &Path, resume: bool) -> Result<()> {
     if resume {
         let saved = TrainConfig::from_json_file(&cfg_path)?;
         if &saved != cfg {
-            return Err(TrainError::Config {
-                path: cfg_path,
-                reason: "differs from the config given for the resumed run (a resumed run keeps its config)".into(),
-            });
+            return Err(TrainError::ConfigChanged { path: cfg_path });
         }
         return Ok(());
     }

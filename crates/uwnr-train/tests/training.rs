@@ -145,6 +145,12 @@ fn loss_falls_and_validation_writes_its_outputs() {
     let stop = AtomicBool::new(false);
     let err = train(&cfg, &opts, &stop, &mut |_| {}).unwrap_err();
     assert!(matches!(err, TrainError::RunExists { .. }), "{err}");
+    // Resuming it with another config is refused too.
+    let mut resume = opts.clone();
+    resume.resume = true;
+    let other = TrainConfig { epochs: 9, ..cfg };
+    let err = train(&other, &resume, &stop, &mut |_| {}).unwrap_err();
+    assert!(matches!(err, TrainError::ConfigChanged { .. }), "{err}");
 }
 
 #[test]
