@@ -27,7 +27,6 @@ pub mod config;
 pub mod csvlog;
 pub mod data;
 pub mod error;
-pub mod lf;
 pub mod loader;
 pub mod losses;
 pub mod plot;

@@ -35,11 +35,11 @@ use crate::config::TrainConfig;
 use crate::csvlog::{CsvLog, METRICS_HEADER, VAL_HEADER};
 use crate::data::{LoadOptions, TrainData, ValPair, load_data};
 use crate::error::{Result, TrainError};
-use crate::lf;
 use crate::loader::{Batch, BatchSpec, Loader};
 use crate::losses::{Criterion, LossValues, read_terms};
 use crate::plot::{contact_sheet, draw_curves};
 use crate::vgg::Vgg19Features;
+use uwnr_core::lightfield;
 
 /// Name of the config file in the run folder.
 pub const CONFIG_FILE: &str = "config.json";
@@ -207,8 +207,8 @@ pub fn train(
     let total_steps = cfg.epochs * steps_per_epoch;
     let val_lf: Vec<Image> = val
         .iter()
-        .map(|v| lf::light_field_for(&v.underwater, v.clean.width(), v.clean.height()))
-        .collect::<Result<_>>()?;
+        .map(|v| lightfield::light_field_for(&v.underwater, v.clean.width(), v.clean.height()))
+        .collect::<uwnr_core::Result<_>>()?;
 
     let device = opts.device.clone().autodiff();
     let inner = opts.device.clone();
@@ -285,7 +285,7 @@ pub fn train(
         batch_size: cfg.batch_size,
         crop: cfg.crop,
         augment: cfg.augment,
-        light_field: lf::light_field_raw,
+        light_field: lightfield::light_field_raw,
     };
     let mut loader = Loader::start(
         spec,
