@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Independent NumPy / OpenCV / scikit-image computations of the reference-based baselines'
 building blocks, written to crates/uwnr-baselines/tests/fixtures/reference_values.json for
-crates/uwnr-baselines/tests/reference_values.rs to compare against.
+crates/uwnr-baselines/tests/suite/reference_values.rs to compare against.
 
 - SUID quadtree background light on assets/samples/ref-green.png, following the public
   re-implementation vismiroglou/SUID_data_generation (score = mean - std over all channel values,

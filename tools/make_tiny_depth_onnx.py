@@ -18,7 +18,7 @@ Files written to crates/uwnr-depth/tests/fixtures/:
 
 Run from the repository root:  python3 tools/make_tiny_depth_onnx.py
 Needs the `onnx` and `numpy` packages. The weights below are repeated in
-crates/uwnr-depth/tests/onnx.rs; change both together.
+crates/uwnr-depth/tests/suite/onnx.rs; change both together.
 """
 
 from pathlib import Path

@@ -26,6 +26,9 @@ pub enum Command {
     Train(TrainArgs),
     /// Score images with the field's metrics (PSNR, SSIM, UIQM, UCIQE, FD, KID).
     Eval(EvalArgs),
+    /// Generate a paired dataset (K renders per clean image), resumable and shardable;
+    /// `dataset verify` checks one, `dataset merge` joins shards.
+    Dataset(DatasetArgs),
 }
 
 /// How clean images are paired with references when there are several.
@@ -179,6 +182,85 @@ pub struct BaselineOpts {
     /// Colour space of the Reinhard transfer: lalphabeta (the paper's) or lab (CIELAB).
     #[arg(long, value_name = "SPACE")]
     pub reinhard_space: Option<String>,
+}
+
+#[derive(Debug, Args)]
+#[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
+pub struct DatasetArgs {
+    #[command(subcommand)]
+    pub action: Option<DatasetAction>,
+    #[command(flatten)]
+    pub make: DatasetMakeArgs,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum DatasetAction {
+    /// Check a dataset folder: every manifest line, every file (present, decodable, recorded
+    /// size), no stray files, no missing pairs. Exits non-zero and lists what is wrong.
+    Verify {
+        /// The dataset folder.
+        #[arg(value_name = "OUT")]
+        out: PathBuf,
+    },
+    /// Join the shards of a dataset into one manifest.jsonl (shards written into OUT, or into
+    /// the folders named after it, whose pairs are copied into OUT).
+    Merge {
+        /// The dataset folder to complete.
+        #[arg(value_name = "OUT")]
+        out: PathBuf,
+        /// Folders of shards that wrote elsewhere.
+        #[arg(value_name = "SHARD_DIR")]
+        sources: Vec<PathBuf>,
+        /// Skip preview.png and index.html.
+        #[arg(long)]
+        no_gallery: bool,
+    },
+}
+
+#[derive(Debug, Args)]
+pub struct DatasetMakeArgs {
+    /// Clean images: files or folders (searched recursively).
+    #[arg(long, num_args = 1.., value_name = "DIR|FILE", required = true)]
+    pub clean: Vec<PathBuf>,
+    /// Real underwater references: files or folders (searched recursively).
+    #[arg(long, num_args = 1.., value_name = "DIR|FILE")]
+    pub references: Vec<PathBuf>,
+    /// Output folder (created; run the same command again to resume).
+    #[arg(long, short = 'o', value_name = "OUT", required = true)]
+    pub output: Option<PathBuf>,
+    /// Renders per clean image, each after a different reference (drawn without replacement).
+    #[arg(long, short = 'k', value_name = "K", default_value_t = 1)]
+    pub per_image: usize,
+    /// Rendering method.
+    #[arg(long, value_enum, default_value_t = MethodArg::Uwnr)]
+    pub method: MethodArg,
+    #[command(flatten)]
+    pub baseline: BaselineOpts,
+    /// Seed of the reference draw and of the baselines' random parameters.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Render only shard I of N (0-based), e.g. 3/8; join shards with `uwnr dataset merge`.
+    #[arg(long, value_name = "I/N")]
+    pub shard: Option<uwnr_dataset::Shard>,
+    /// Pair size: native (each clean image's own) or WxH (scaled to cover, centre-cropped).
+    #[arg(long, value_name = "native|WxH", default_value = "native")]
+    pub size: uwnr_dataset::Size,
+    /// Worker threads (default: the number of CPU cores).
+    #[arg(long, short = 'j', value_name = "J")]
+    pub jobs: Option<usize>,
+    /// Also write depth/NAME_k.png (16-bit, bright = far).
+    #[arg(long)]
+    pub save_depth: bool,
+    /// Also write lightfield/NAME_k.png (the light field the network saw).
+    #[arg(long)]
+    pub save_lightfield: bool,
+    /// Skip preview.png and index.html.
+    #[arg(long)]
+    pub no_gallery: bool,
+    #[command(flatten)]
+    pub depth: DepthOpts,
+    #[command(flatten)]
+    pub model: ModelOpts,
 }
 
 /// Parses `MIN,MAX`.

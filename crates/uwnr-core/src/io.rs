@@ -133,6 +133,26 @@ pub fn save_rgb16(path: &Path, img: &Image) -> Result<()> {
     write_atomic(path, |out| out.write_all(&encoded))
 }
 
+/// Saves a 1-channel image as a 16-bit grey PNG (`(v * 65535 + 0.5).clamp(0, 65535)`), the form
+/// depth maps keep their precision in ([`load_gray`] reads it back as `code / 65535`). The
+/// extension must be `.png`.
+pub fn save_gray16(path: &Path, img: &Image) -> Result<()> {
+    if output_format(path)? != ImageFormat::Png {
+        return Err(CoreError::Encode {
+            path: path.to_path_buf(),
+            reason: "16-bit images can only be saved as PNG".into(),
+        });
+    }
+    let (w, h) = checked_size(path, img, 1)?;
+    let bytes: Vec<u8> = img
+        .plane(0)
+        .iter()
+        .flat_map(|&v| quantise_u16(v).to_ne_bytes())
+        .collect();
+    let encoded = encode(path, ImageFormat::Png, &bytes, w, h, ExtendedColorType::L16)?;
+    write_atomic(path, |out| out.write_all(&encoded))
+}
+
 /// Saves a 1-channel image as 8-bit grey PNG or JPEG, chosen by the extension.
 pub fn save_gray(path: &Path, img: &Image) -> Result<()> {
     let format = output_format(path)?;

@@ -9,6 +9,7 @@ pub mod image;
 pub mod io;
 pub mod lightfield;
 pub mod resize;
+pub mod sheet;
 
 pub use error::{CoreError, Result};
 pub use image::{Image, Plane};

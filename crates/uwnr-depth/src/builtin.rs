@@ -18,7 +18,7 @@
 //!   ground fills the bottom of the frame close to the camera and recedes towards the horizon,
 //!   so distance grows towards the top ("gravity" / ground-plane prior of single-image depth
 //!   work, e.g. Hoiem, Efros & Hebert 2005, "Automatic photo pop-up"). It is by far the strongest
-//!   cheap cue on the RGB-D images we checked (`tests/rgbd_eval.rs`).
+//!   cheap cue on the RGB-D images we checked (`tests/suite/rgbd_eval.rs`).
 //! - **Local contrast.** Near surfaces show resolved texture and sharp object boundaries;
 //!   distant regions, walls and sky are flatter (aerial perspective lowers contrast with
 //!   distance, the cue behind haze priors such as He et al. 2009's dark channel). The cue only

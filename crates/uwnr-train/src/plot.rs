@@ -8,8 +8,7 @@ use std::path::Path;
 
 use image::{Rgb, RgbImage};
 use uwnr_core::Image;
-use uwnr_core::io::{save_rgb, to_rgb8};
-use uwnr_core::resize::resize_bilinear;
+use uwnr_core::io::save_rgb;
 
 use crate::error::{Result, TrainError};
 
@@ -317,47 +316,16 @@ fn save_png(path: &Path, img: &RgbImage) -> Result<()> {
 }
 
 /// A contact sheet: one row per `(clean, render, underwater)` triple, each image scaled to
-/// `thumb` pixels high (aspect kept), separated by a white gap.
+/// `thumb` pixels high (aspect kept), separated by a white gap ([`uwnr_core::sheet`]).
 pub fn contact_sheet(path: &Path, rows: &[(Image, Image, Image)], thumb: usize) -> Result<()> {
-    const GAP: usize = 4;
     if rows.is_empty() {
         return Err(TrainError::InvalidConfig {
             field: "val_sheet_pairs",
             reason: "a contact sheet needs at least one pair".into(),
         });
     }
-    let mut scaled = Vec::with_capacity(rows.len());
-    let mut width = 0;
-    for (a, b, c) in rows {
-        let mut row = Vec::with_capacity(3);
-        for im in [a, b, c] {
-            let w = ((im.width() * thumb) as f64 / im.height().max(1) as f64)
-                .round()
-                .max(1.0) as usize;
-            row.push(resize_bilinear(im, w, thumb)?);
-        }
-        width = width.max(row.iter().map(|i| i.width() + GAP).sum::<usize>() + GAP);
-        scaled.push(row);
-    }
-    let height = rows.len() * (thumb + GAP) + GAP;
-    let mut sheet = RgbImage::from_pixel(width as u32, height as u32, WHITE);
-    for (r, row) in scaled.iter().enumerate() {
-        let mut x = GAP;
-        let y = GAP + r * (thumb + GAP);
-        for im in row {
-            let px = to_rgb8(im);
-            for yy in 0..im.height() {
-                for xx in 0..im.width() {
-                    let i = 3 * (yy * im.width() + xx);
-                    sheet.put_pixel(
-                        (x + xx) as u32,
-                        (y + yy) as u32,
-                        Rgb([px[i], px[i + 1], px[i + 2]]),
-                    );
-                }
-            }
-            x += im.width() + GAP;
-        }
-    }
-    save_png(path, &sheet)
+    let rows: Vec<Vec<&Image>> = rows.iter().map(|(a, b, c)| vec![a, b, c]).collect();
+    let sheet = uwnr_core::sheet::contact_sheet(&rows, thumb)?;
+    save_rgb(path, &sheet)?;
+    Ok(())
 }

@@ -1,5 +1,6 @@
 //! One module per subcommand; shared pieces (model and depth set-up) live here.
 
+mod dataset;
 mod depth;
 mod eval;
 mod info;
@@ -26,6 +27,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
         Command::Info(a) => info::run(&a),
         Command::Train(a) => train::run(&a),
         Command::Eval(a) => eval::run(&a),
+        Command::Dataset(a) => dataset::run(&a),
     }
 }
 

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Independent numpy re-implementation of uwnr-depth's built-in depth prior (src/builtin.rs),
-used to check the values pinned in tests/builtin.rs (`pinned_values`).
+used to check the values pinned in tests/suite/builtin.rs (`pinned_values`).
 
 The antialiased bilinear resize is PIL's `Image.resize(..., BILINEAR)` on float ("F") images,
 the filter uwnr_core::resize::resize_bilinear reproduces.
@@ -56,7 +56,7 @@ def builtin_depth(rgb):
 
 
 def scene(width, height):
-    """Same image as `scene` in tests/builtin.rs."""
+    """Same image as `scene` in tests/suite/builtin.rs."""
     y, x = np.mgrid[0:height, 0:width]
     fx, fy = x / width, y / height
     base = np.stack([0.3 + 0.4 * fx, 0.2 + 0.5 * fy, 0.6 - 0.3 * fx * fy], axis=-1)

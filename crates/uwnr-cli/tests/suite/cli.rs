@@ -3,47 +3,7 @@
 //! The network weights used here are the small width-8 parity fixture of uwnr-model (random
 //! weights): these tests check the tool's behaviour, not the rendering's look.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
-fn sample(name: &str) -> PathBuf {
-    root().join("assets/samples").join(name)
-}
-
-fn weights() -> PathBuf {
-    root().join("crates/uwnr-model/tests/fixtures/parity_w8.safetensors")
-}
-
-fn uwnr(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_uwnr"))
-        .args(args)
-        .output()
-        .expect("running uwnr")
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().expect("utf-8 path")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn files_in(dir: &Path) -> Vec<String> {
-    let mut v: Vec<String> = std::fs::read_dir(dir)
-        .map(|rd| {
-            rd.filter_map(|e| e.ok())
-                .map(|e| e.file_name().to_string_lossy().into_owned())
-                .collect()
-        })
-        .unwrap_or_default();
-    v.sort();
-    v
-}
+use crate::common::{files_in, s, sample, stderr, uwnr, weights};
 
 #[test]
 fn renders_one_file_at_the_clean_images_size() {

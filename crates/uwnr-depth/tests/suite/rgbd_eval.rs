@@ -2,7 +2,7 @@
 //! RGB-D images of `../shared/data/rgbd` (NYU-v2 and Redwood: 16-bit millimetres; KITTI: sparse
 //! LiDAR, metres x 256; SUN RGB-D: 16-bit). Pixels without depth (0, or 65535) are skipped.
 //!
-//! Run: `cargo test -p uwnr-depth --test rgbd_eval -- --ignored --nocapture`
+//! Run: `cargo test -p uwnr-depth --test suite rgbd_eval -- --ignored --nocapture`
 //! (skips with a message when the data folder is absent).
 
 use std::path::{Path, PathBuf};

@@ -8,7 +8,7 @@
 //! agreement is ~1e-13 when n > d; when n < d, sqrtm of the singular product S1 S2 is itself
 //! only accurate to about 1e-8 relative, hence 1e-6 there.
 
-mod common;
+use crate::common;
 
 use common::{Agreement, json};
 use uwnr_metrics::{FeatureStats, frechet_distance, frechet_distance_from_stats, kid};

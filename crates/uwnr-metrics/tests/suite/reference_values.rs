@@ -7,7 +7,7 @@
 //! and sum tens of thousands of values; summation order differs from numpy's pairwise sums,
 //! so they agree to about 1e-12 relative; the tests allow 1e-8.
 
-mod common;
+use crate::common;
 
 use common::{Agreement, json, load_png};
 use uwnr_metrics::{

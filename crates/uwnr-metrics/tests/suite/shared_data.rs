@@ -3,8 +3,6 @@
 //! images score higher UIQM and UCIQE than the raw ones on average, and FD-ct separates raw
 //! from enhanced photos far more than it separates two halves of the raw set.
 
-mod common;
-
 use std::path::{Path, PathBuf};
 
 use uwnr_core::Image;

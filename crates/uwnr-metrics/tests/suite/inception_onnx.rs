@@ -4,7 +4,7 @@
 //! reference evaluator. f32 convolution sums over 75 x 5625 terms in a different order, so
 //! features agree to ~1e-6; the tolerance is 1e-5.
 
-mod common;
+use crate::common;
 
 use common::{Agreement, fixture, json, load_png};
 use uwnr_core::Image;

@@ -8,7 +8,7 @@
 //! JPEG; the min-max normalisation of the map amplifies that on dark, low-contrast images, so
 //! JPEG sources get a looser bound.
 
-mod common;
+use crate::common;
 
 use common::{compare, fixtures, read_json, read_rgb8, workspace_root};
 use uwnr_core::io::{DecodeLimits, load_rgb};

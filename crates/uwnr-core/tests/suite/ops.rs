@@ -2,7 +2,7 @@
 //! the real libraries produce (fixtures from `tools/lightfield_reference.py`). All must match
 //! bit for bit.
 
-mod common;
+use crate::common;
 
 use common::{compare, fixtures, read_json, read_rgb8, workspace_root};
 use uwnr_core::gaussian::cv_gaussian_blur_u8;

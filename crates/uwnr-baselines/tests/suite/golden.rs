@@ -2,7 +2,7 @@
 //! with a fixed seed must match the committed PNGs (and parameter manifests) in `tests/golden/`.
 //!
 //! After an intended change, rewrite them with
-//! `REGENERATE=1 cargo test -p uwnr-baselines --test golden` and look at the new images.
+//! `REGENERATE=1 cargo test -p uwnr-baselines --test suite golden` and look at the new images.
 
 use std::path::{Path, PathBuf};
 

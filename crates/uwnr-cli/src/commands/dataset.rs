@@ -1,0 +1,224 @@
+//! `uwnr dataset`, `uwnr dataset verify`, `uwnr dataset merge` (library: `uwnr_dataset`).
+
+use std::process::ExitCode;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use anyhow::{Context, Result};
+use indicatif::{ProgressBar, ProgressStyle};
+use uwnr_core::io::DecodeLimits;
+use uwnr_dataset::{Event, Renderer, RunOptions, Spec};
+use uwnr_model::RenderOptions;
+
+use crate::cli::{DatasetAction, DatasetArgs, DatasetMakeArgs};
+
+/// Problems printed by `verify` before the rest are only counted.
+const MAX_LISTED_PROBLEMS: usize = 200;
+
+pub fn run(a: &DatasetArgs) -> Result<ExitCode> {
+    match &a.action {
+        Some(DatasetAction::Verify { out }) => verify(out),
+        Some(DatasetAction::Merge {
+            out,
+            sources,
+            no_gallery,
+        }) => {
+            let r = uwnr_dataset::merge(out, sources, !no_gallery)
+                .with_context(|| format!("merging into {}", out.display()))?;
+            eprintln!(
+                "merged {} pairs{}{} into {}",
+                r.pairs,
+                r.shards
+                    .map(|n| format!(" from {n} shards"))
+                    .unwrap_or_default(),
+                if r.copied > 0 {
+                    format!(" ({} files copied)", r.copied)
+                } else {
+                    String::new()
+                },
+                out.join("manifest.jsonl").display()
+            );
+            if r.failed > 0 {
+                eprintln!(
+                    "{} planned pairs failed in the shards (see failed.jsonl)",
+                    r.failed
+                );
+            }
+            Ok(ExitCode::SUCCESS)
+        }
+        None => make(&a.make),
+    }
+}
+
+fn bar(template: &str) -> ProgressBar {
+    let bar = ProgressBar::new(0);
+    if let Ok(style) = ProgressStyle::with_template(template) {
+        bar.set_style(style.progress_chars("=> "));
+    }
+    bar
+}
+
+fn renderer(a: &DatasetMakeArgs) -> Result<Renderer> {
+    let have_refs = !a.references.is_empty();
+    if let Some(method) = super::method::baseline_method(a.method, &a.baseline, have_refs)? {
+        return Ok(Renderer::Baseline(method));
+    }
+    let device = super::device(a.model.device)?;
+    let (generator, config, _info, source) =
+        super::load_model(a.model.weights.as_deref(), &device)?;
+    let bytes = match &a.model.weights {
+        Some(p) => std::fs::read(p).with_context(|| format!("reading {}", p.display()))?,
+        None => super::bundled_weights().unwrap_or_default().to_vec(),
+    };
+    Ok(Renderer::network(
+        generator,
+        config,
+        RenderOptions {
+            max_tile_pixels: a.model.max_whole_pixels,
+            tile: a.model.tile,
+            overlap: a.model.overlap,
+        },
+        device,
+        source,
+        &bytes,
+    ))
+}
+
+fn make(a: &DatasetMakeArgs) -> Result<ExitCode> {
+    let Some(out) = a.output.clone() else {
+        anyhow::bail!("--output is required");
+    };
+    let renderer = renderer(a)?;
+    let spec = Spec {
+        clean: a.clean.clone(),
+        references: a.references.clone(),
+        per_image: a.per_image,
+        seed: a.seed,
+        size: a.size,
+        save_depth: a.save_depth,
+        save_lightfield: a.save_lightfield,
+        depth: super::depth_source(&a.depth),
+    };
+    let jobs = a.jobs.unwrap_or_else(|| {
+        std::thread::available_parallelism()
+            .map(usize::from)
+            .unwrap_or(1)
+    });
+    let opts = RunOptions {
+        shard: a.shard,
+        jobs,
+        limits: DecodeLimits::default(),
+        gallery: !a.no_gallery,
+    };
+
+    let stop = Arc::new(AtomicBool::new(false));
+    let flag = stop.clone();
+    ctrlc::set_handler(move || {
+        if flag.swap(true, Ordering::SeqCst) {
+            std::process::exit(130);
+        }
+        eprintln!("\nuwnr: finishing the pairs in progress (Ctrl-C again to abort; resume with the same command)");
+    })
+    .context("installing the Ctrl-C handler")?;
+
+    let bar = bar("{spinner} pairs {pos}/{len} [{bar:30}] {per_sec} eta {eta} {msg}");
+    let mut observer = |e: Event<'_>| match e {
+        Event::Start {
+            planned,
+            done,
+            todo,
+        } => {
+            bar.suspend(|| {
+                eprintln!(
+                    "{planned} pairs planned{}: {done} already done, {todo} to render with {jobs} job(s)",
+                    a.shard
+                        .map(|s| format!(" in shard {}/{}", s.index, s.count))
+                        .unwrap_or_default()
+                );
+            });
+            bar.set_length(todo as u64);
+            bar.reset_eta();
+        }
+        Event::Pair(r) => {
+            bar.inc(1);
+            bar.set_message(r.id.clone());
+        }
+        Event::Failed(f) => {
+            bar.inc(f.ids.len() as u64);
+            bar.suspend(|| eprintln!("uwnr: failed: {}: {}", f.source, f.reason));
+        }
+        Event::Note(n) => bar.suspend(|| eprintln!("{n}")),
+    };
+    let summary = uwnr_dataset::generate(&out, &spec, &renderer, &opts, &stop, &mut observer)
+        .with_context(|| format!("generating the dataset in {}", out.display()))?;
+    bar.finish_and_clear();
+    eprintln!(
+        "dataset: {} rendered, {} skipped (already done), {} failed in {:.1} s ({:.2} pairs/s)",
+        summary.rendered,
+        summary.skipped,
+        summary
+            .failures
+            .iter()
+            .map(|f| f.ids.len().max(1))
+            .sum::<usize>(),
+        summary.secs,
+        summary.rendered as f64 / summary.secs.max(1e-9)
+    );
+    if !summary.failures.is_empty() {
+        eprintln!("failed items:");
+        for f in &summary.failures {
+            eprintln!("  {}: {}", f.source, f.reason);
+        }
+    }
+    if summary.interrupted {
+        eprintln!("stopped before the end: run the same command again to finish");
+        return Ok(ExitCode::from(130));
+    }
+    if summary.complete && a.shard.is_none() {
+        eprintln!("wrote {}", out.join("manifest.jsonl").display());
+    }
+    Ok(if summary.failures.is_empty() {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    })
+}
+
+fn verify(out: &std::path::Path) -> Result<ExitCode> {
+    let bar = bar("{spinner} checking {pos}/{len} pairs [{bar:30}] eta {eta}");
+    let progress = |done: usize, total: usize| {
+        bar.set_length(total as u64);
+        bar.set_position(done as u64);
+    };
+    let report = uwnr_dataset::verify(out, &progress)
+        .with_context(|| format!("verifying {}", out.display()))?;
+    bar.finish_and_clear();
+    for n in &report.notes {
+        eprintln!("note: {n}");
+    }
+    for p in report.problems.iter().take(MAX_LISTED_PROBLEMS) {
+        eprintln!("problem: {p}");
+    }
+    if report.problems.len() > MAX_LISTED_PROBLEMS {
+        eprintln!(
+            "... and {} more problems",
+            report.problems.len() - MAX_LISTED_PROBLEMS
+        );
+    }
+    if report.ok() {
+        eprintln!(
+            "verify: OK: {} pairs ({} planned, {} not made because their inputs failed)",
+            report.pairs, report.planned, report.failed
+        );
+        Ok(ExitCode::SUCCESS)
+    } else {
+        eprintln!(
+            "verify: {} problem(s) in {} ({} pairs in the manifest, {} planned)",
+            report.problems.len(),
+            out.display(),
+            report.pairs,
+            report.planned
+        );
+        Ok(ExitCode::FAILURE)
+    }
+}

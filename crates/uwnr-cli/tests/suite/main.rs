@@ -1,0 +1,6 @@
+//! End-to-end tests of the `uwnr` binary, in one test executable.
+
+mod cli;
+#[allow(dead_code)]
+mod common;
+mod dataset;

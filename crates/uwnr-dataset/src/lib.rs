@@ -1,0 +1,36 @@
+//! uwnr-dataset: mass production of paired underwater data (the paper's LNRUD recipe: every
+//! clean image rendered after K real underwater references drawn without replacement).
+//!
+//! - [`plan`]: the deterministic plan (inputs, names, reference draws, seeds, shards);
+//! - [`run`]: the crash-safe, resumable, parallel generation ([`generate`]);
+//! - [`manifest`]: the folder's settings, manifest and failure files;
+//! - [`verify`] and [`merge`]: checking a folder, joining shards;
+//! - [`gallery`]: `preview.png` and `index.html`.
+//!
+//! A dataset folder:
+//! ```text
+//! OUT/dataset.json         settings and inputs (compared on every resume)
+//! OUT/manifest.jsonl       one line per complete pair
+//! OUT/underwater/NAME_k.png, OUT/clean/NAME_k.png   the pair
+//! OUT/depth/NAME_k.png     16-bit depth, bright = far (optional)
+//! OUT/lightfield/NAME_k.png  the light field the network saw (optional)
+//! OUT/failed.jsonl         what the last run could not make (absent when nothing failed)
+//! OUT/preview.png, OUT/index.html, OUT/gallery/   a look at the result
+//! ```
+
+pub mod error;
+pub mod gallery;
+pub mod manifest;
+pub mod merge;
+pub mod plan;
+pub mod renderer;
+pub mod run;
+pub mod verify;
+
+pub use error::{DatasetError, Result};
+pub use manifest::{Failure, Record, Settings};
+pub use merge::{MergeReport, merge};
+pub use plan::{Shard, Size};
+pub use renderer::Renderer;
+pub use run::{Event, RunOptions, Spec, Summary, generate};
+pub use verify::{Report, verify};

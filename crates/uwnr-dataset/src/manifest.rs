@@ -1,0 +1,449 @@
+//! The files that describe a dataset folder:
+//! - `dataset.json`, the settings and the inputs of the run ([`Settings`]), written once and
+//!   compared on every resume, so a resumed run cannot mix two configurations;
+//! - `manifest.jsonl` (`manifest.shard-I-of-N.jsonl` for a shard), one [`Record`] per complete
+//!   pair, appended only after the pair's files are in place;
+//! - `failed.jsonl` (`failed.shard-I-of-N.jsonl`), the items the last run could not make.
+
+use std::collections::HashSet;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{DatasetError, Result, io_err};
+use crate::plan::{Shard, Size, clean_names, pair_id};
+
+/// Name of the settings file.
+pub const SETTINGS_FILE: &str = "dataset.json";
+/// Format tag written into [`Settings::format`].
+pub const FORMAT: &str = "uwnr-dataset/1";
+/// Folder of the rendered underwater images.
+pub const UNDERWATER_DIR: &str = "underwater";
+/// Folder of the clean images exactly as rendered.
+pub const CLEAN_DIR: &str = "clean";
+/// Folder of the depth maps (16-bit grey PNG, bright = far).
+pub const DEPTH_DIR: &str = "depth";
+/// Folder of the light-field maps the network saw, at the pair's size.
+pub const LIGHTFIELD_DIR: &str = "lightfield";
+/// Every folder that holds pair files.
+pub const PAIR_DIRS: [&str; 4] = [UNDERWATER_DIR, CLEAN_DIR, DEPTH_DIR, LIGHTFIELD_DIR];
+
+/// Everything that decides a dataset's content. Two runs with equal settings make the same
+/// files, byte for byte.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Settings {
+    /// [`FORMAT`].
+    pub format: String,
+    /// `uwnr`, `jerlov`, `uisa`, `seathru` or `reinhard`.
+    pub method: String,
+    /// The method's configuration (for `uwnr`: the weights and their fingerprint).
+    pub method_params: serde_json::Value,
+    /// The depth source, as `uwnr_depth::DepthSource` serialises it.
+    pub depth_source: serde_json::Value,
+    /// Renders per clean image (K).
+    pub per_image: usize,
+    /// Seed of the reference draw and of the methods' sampling.
+    pub seed: u64,
+    /// Size of the pairs.
+    pub size: Size,
+    /// Whether `depth/` is written.
+    pub save_depth: bool,
+    /// Whether `lightfield/` is written.
+    pub save_lightfield: bool,
+    /// The clean images, in plan order.
+    pub clean: Vec<String>,
+    /// The references, in plan order (empty for methods that use none).
+    pub references: Vec<String>,
+    /// `clean.len() * per_image`.
+    pub pairs_planned: usize,
+}
+
+/// One pair of the plan: its id, global index and clean image.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct PlannedPair {
+    pub id: String,
+    pub index: u64,
+    pub clean_index: usize,
+    pub k: usize,
+}
+
+impl Settings {
+    /// Output names of the clean images (see [`clean_names`]).
+    #[must_use]
+    pub fn names(&self) -> Vec<String> {
+        let paths: Vec<PathBuf> = self.clean.iter().map(PathBuf::from).collect();
+        clean_names(&paths)
+    }
+
+    /// Every planned pair, in index order; with a shard, only that shard's.
+    #[must_use]
+    pub fn planned_pairs(&self, shard: Option<Shard>) -> Vec<PlannedPair> {
+        let names = self.names();
+        let mut out = Vec::new();
+        for (i, name) in names.iter().enumerate() {
+            if shard.is_some_and(|s| !s.owns(i)) {
+                continue;
+            }
+            for k in 0..self.per_image {
+                out.push(PlannedPair {
+                    id: pair_id(name, k),
+                    index: (i * self.per_image + k) as u64,
+                    clean_index: i,
+                    k,
+                });
+            }
+        }
+        out
+    }
+
+    /// Reads `dir/dataset.json`.
+    pub fn read(dir: &Path) -> Result<Self> {
+        let path = dir.join(SETTINGS_FILE);
+        let text = std::fs::read_to_string(&path).map_err(io_err(&path))?;
+        let s: Self = serde_json::from_str(&text).map_err(|e| DatasetError::Corrupt {
+            path: path.clone(),
+            reason: format!("not a dataset settings file: {e}"),
+        })?;
+        if s.format != FORMAT {
+            return Err(DatasetError::Corrupt {
+                path,
+                reason: format!("format {:?}, this uwnr reads {FORMAT:?}", s.format),
+            });
+        }
+        Ok(s)
+    }
+
+    /// Writes `dir/dataset.json` atomically.
+    pub fn write(&self, dir: &Path) -> Result<()> {
+        let path = dir.join(SETTINGS_FILE);
+        let text = serde_json::to_string_pretty(self).map_err(|e| {
+            DatasetError::Invalid(format!("cannot serialise the dataset settings: {e}"))
+        })?;
+        uwnr_core::io::write_atomic(&path, |w| {
+            w.write_all(text.as_bytes())?;
+            w.write_all(b"\n")
+        })?;
+        Ok(())
+    }
+
+    /// The first field in which `other` differs, with both values shown briefly.
+    #[must_use]
+    pub fn first_difference(&self, other: &Self) -> Option<(String, String, String)> {
+        let a = serde_json::to_value(self).ok()?;
+        let b = serde_json::to_value(other).ok()?;
+        let (a, b) = (a.as_object()?, b.as_object()?);
+        for (key, va) in a {
+            let vb = b.get(key).unwrap_or(&serde_json::Value::Null);
+            if va != vb {
+                return Some((key.clone(), brief(va), brief(vb)));
+            }
+        }
+        None
+    }
+}
+
+fn brief(v: &serde_json::Value) -> String {
+    let s = match v {
+        serde_json::Value::Array(items) => format!("{} items", items.len()),
+        other => other.to_string(),
+    };
+    if s.len() > 120 {
+        format!("{}...", &s[..s.floor_char_boundary(117)])
+    } else {
+        s
+    }
+}
+
+/// One complete pair, one line of the manifest.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Record {
+    /// `NAME_k`.
+    pub id: String,
+    /// Global pair index, `clean_index * K + k`.
+    pub index: u64,
+    /// The clean image the pair was made from.
+    pub clean_source: String,
+    /// The reference it was rendered after (`null` for methods that use none).
+    pub reference_source: Option<String>,
+    /// The method.
+    pub method: String,
+    /// The method's parameters for this pair (sampled values included).
+    pub params: serde_json::Value,
+    /// The pair's seed.
+    pub seed: u64,
+    /// Pair size in pixels.
+    pub width: usize,
+    pub height: usize,
+    /// Files of the pair, relative to the dataset folder.
+    pub underwater: String,
+    pub clean: String,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub depth: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lightfield: Option<String>,
+}
+
+impl Record {
+    /// The pair's files, relative to the dataset folder.
+    pub fn files(&self) -> impl Iterator<Item = &str> {
+        [
+            Some(&self.underwater),
+            Some(&self.clean),
+            self.depth.as_ref(),
+            self.lightfield.as_ref(),
+        ]
+        .into_iter()
+        .flatten()
+        .map(String::as_str)
+    }
+
+    /// One manifest line, newline included.
+    #[must_use]
+    pub fn to_line(&self) -> String {
+        // A struct of strings, numbers and JSON values always serialises.
+        let mut s = serde_json::to_string(self).unwrap_or_default();
+        s.push('\n');
+        s
+    }
+}
+
+/// The manifest file of a run: `manifest.jsonl`, or `manifest.shard-I-of-N.jsonl`.
+#[must_use]
+pub fn manifest_name(shard: Option<Shard>) -> String {
+    match shard {
+        Some(s) => format!("manifest.shard-{}.jsonl", s.tag()),
+        None => "manifest.jsonl".into(),
+    }
+}
+
+/// The failure list of a run: `failed.jsonl`, or `failed.shard-I-of-N.jsonl`.
+#[must_use]
+pub fn failed_name(shard: Option<Shard>) -> String {
+    match shard {
+        Some(s) => format!("failed.shard-{}.jsonl", s.tag()),
+        None => "failed.jsonl".into(),
+    }
+}
+
+/// Parses `manifest.shard-I-of-N.jsonl` (or `failed.shard-...`) names.
+#[must_use]
+pub fn shard_of_file(name: &str, prefix: &str) -> Option<Shard> {
+    let rest = name.strip_prefix(prefix)?.strip_prefix(".shard-")?;
+    let rest = rest.strip_suffix(".jsonl")?;
+    let (i, n) = rest.split_once("-of-")?;
+    let (index, count) = (i.parse().ok()?, n.parse().ok()?);
+    (index < count).then_some(Shard { index, count })
+}
+
+/// A manifest as read from disk.
+#[derive(Debug, Default)]
+pub struct ManifestContents {
+    /// Lines that parsed, in file order, with their 1-based line numbers.
+    pub records: Vec<(usize, Record)>,
+    /// Lines that did not parse: line number and reason.
+    pub bad_lines: Vec<(usize, String)>,
+    /// The file ended in the middle of a line (a run was killed while appending).
+    pub torn_tail: bool,
+}
+
+/// Reads a manifest; a missing file reads as empty.
+pub fn read_manifest(path: &Path) -> Result<ManifestContents> {
+    let bytes = match std::fs::read(path) {
+        Ok(b) => b,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+            return Ok(ManifestContents::default());
+        }
+        Err(e) => return Err(io_err(path)(e)),
+    };
+    let mut out = ManifestContents::default();
+    let mut rest: &[u8] = &bytes;
+    let mut line_no = 0;
+    while !rest.is_empty() {
+        line_no += 1;
+        let (line, next) = match rest.iter().position(|&b| b == b'\n') {
+            Some(i) => (&rest[..i], &rest[i + 1..]),
+            None => {
+                out.torn_tail = true;
+                break;
+            }
+        };
+        rest = next;
+        if line.iter().all(u8::is_ascii_whitespace) {
+            out.bad_lines.push((line_no, "empty line".into()));
+            continue;
+        }
+        match serde_json::from_slice::<Record>(line) {
+            Ok(r) => out.records.push((line_no, r)),
+            Err(e) => out
+                .bad_lines
+                .push((line_no, format!("not a pair record: {e}"))),
+        }
+    }
+    Ok(out)
+}
+
+/// Writes `records` as a manifest, atomically, in index order.
+pub fn write_manifest(path: &Path, records: &mut [Record]) -> Result<()> {
+    records.sort_by_key(|r| r.index);
+    let mut text = String::new();
+    for r in records.iter() {
+        text.push_str(&r.to_line());
+    }
+    uwnr_core::io::write_atomic(path, |w| w.write_all(text.as_bytes()))?;
+    Ok(())
+}
+
+/// Appends complete records to a manifest, one whole line per `write` call, flushed at once,
+/// so a killed run leaves at most one torn last line, which the next run drops.
+pub struct ManifestWriter {
+    file: std::fs::File,
+    path: PathBuf,
+}
+
+impl ManifestWriter {
+    /// Opens `path` for appending (created if missing).
+    pub fn open(path: &Path) -> Result<Self> {
+        let file = std::fs::OpenOptions::new()
+            .create(true)
+            .append(true)
+            .open(path)
+            .map_err(io_err(path))?;
+        Ok(Self {
+            file,
+            path: path.to_path_buf(),
+        })
+    }
+
+    /// Appends one record.
+    pub fn append(&mut self, record: &Record) -> Result<()> {
+        self.file
+            .write_all(record.to_line().as_bytes())
+            .and_then(|()| self.file.flush())
+            .map_err(io_err(&self.path))
+    }
+
+    /// Flushes the file to disk.
+    pub fn sync(&mut self) -> Result<()> {
+        self.file.sync_all().map_err(io_err(&self.path))
+    }
+}
+
+/// One item a run could not make.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Failure {
+    /// The clean image or reference at fault.
+    pub source: String,
+    /// The pairs it cost (empty for a reference that was skipped in favour of another).
+    pub ids: Vec<String>,
+    /// One-line reason.
+    pub reason: String,
+}
+
+/// Writes the failure list (removes the file when there are none).
+pub fn write_failures(path: &Path, failures: &[Failure]) -> Result<()> {
+    if failures.is_empty() {
+        return match std::fs::remove_file(path) {
+            Ok(()) => Ok(()),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(()),
+            Err(e) => Err(io_err(path)(e)),
+        };
+    }
+    let mut text = String::new();
+    for f in failures {
+        text.push_str(&serde_json::to_string(f).unwrap_or_default());
+        text.push('\n');
+    }
+    uwnr_core::io::write_atomic(path, |w| w.write_all(text.as_bytes()))?;
+    Ok(())
+}
+
+/// Reads a failure list; a missing file reads as empty.
+pub fn read_failures(path: &Path) -> Result<Vec<Failure>> {
+    let text = match std::fs::read_to_string(path) {
+        Ok(t) => t,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Vec::new()),
+        Err(e) => return Err(io_err(path)(e)),
+    };
+    text.lines()
+        .filter(|l| !l.trim().is_empty())
+        .map(|l| {
+            serde_json::from_str(l).map_err(|e| DatasetError::Corrupt {
+                path: path.to_path_buf(),
+                reason: format!("not a failure record: {e}"),
+            })
+        })
+        .collect()
+}
+
+/// Ids of the pairs that failures account for.
+#[must_use]
+pub fn failed_ids(failures: &[Failure]) -> HashSet<String> {
+    failures
+        .iter()
+        .flat_map(|f| f.ids.iter().cloned())
+        .collect()
+}
+
+/// Whether `name` is a temporary file left by [`uwnr_core::io::write_atomic`]
+/// (`.NAME.PID-N.tmp`), and the name it was going to become.
+#[must_use]
+pub fn temp_target(name: &str) -> Option<&str> {
+    let inner = name.strip_prefix('.')?.strip_suffix(".tmp")?;
+    let (target, _pid_n) = inner.rsplit_once('.')?;
+    Some(target)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn record(id: &str, index: u64) -> Record {
+        Record {
+            id: id.into(),
+            index,
+            clean_source: "c.jpg".into(),
+            reference_source: Some("r.jpg".into()),
+            method: "reinhard".into(),
+            params: serde_json::json!({"method": "reinhard"}),
+            seed: 1,
+            width: 8,
+            height: 6,
+            underwater: format!("underwater/{id}.png"),
+            clean: format!("clean/{id}.png"),
+            depth: None,
+            lightfield: None,
+        }
+    }
+
+    #[test]
+    fn torn_tail_and_bad_lines_are_reported() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("manifest.jsonl");
+        let mut text = record("a_0", 0).to_line();
+        text.push_str("garbage\n");
+        text.push_str(&record("a_1", 1).to_line());
+        text.push_str("{\"id\": \"a_2\", \"ind");
+        std::fs::write(&path, text).unwrap();
+        let m = read_manifest(&path).unwrap();
+        assert_eq!(m.records.len(), 2);
+        assert_eq!(m.records[1].0, 3);
+        assert_eq!(m.bad_lines.len(), 1);
+        assert_eq!(m.bad_lines[0].0, 2);
+        assert!(m.torn_tail);
+    }
+
+    #[test]
+    fn shard_file_names_round_trip() {
+        let s = Shard { index: 2, count: 5 };
+        assert_eq!(shard_of_file(&manifest_name(Some(s)), "manifest"), Some(s));
+        assert_eq!(shard_of_file(&failed_name(Some(s)), "failed"), Some(s));
+        assert_eq!(shard_of_file("manifest.jsonl", "manifest"), None);
+    }
+
+    #[test]
+    fn temp_names_map_to_their_target() {
+        assert_eq!(temp_target(".a_0.png.1234-7.tmp"), Some("a_0.png"));
+        assert_eq!(temp_target("a_0.png"), None);
+    }
+}

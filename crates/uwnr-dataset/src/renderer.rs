@@ -1,0 +1,200 @@
+//! What turns a clean image into its underwater twin in a dataset run: the UWNR network or one
+//! of the physical / statistical baselines of `uwnr-baselines`.
+
+use std::sync::Mutex;
+
+use serde_json::json;
+use uwnr_baselines::{Method, RenderInput, SeathruCoefficients};
+use uwnr_core::Image;
+use uwnr_model::{Device, Generator, GeneratorConfig, RenderOptions};
+
+use crate::error::{DatasetError, Result};
+
+/// The UWNR generator with what it runs on.
+pub struct Network {
+    /// Cloned once per worker thread.
+    generator: Mutex<Generator>,
+    config: GeneratorConfig,
+    options: RenderOptions,
+    device: Device,
+    /// Where the weights came from (a path, or "bundled model").
+    weights: String,
+    /// A fingerprint of the weight bytes, so a resumed run cannot switch models silently.
+    fingerprint: String,
+}
+
+/// The rendering method of a dataset.
+pub enum Renderer {
+    /// The UWNR network (needs references).
+    Network(Network),
+    /// A baseline; its random parameters are drawn from each pair's seed.
+    Baseline(Method),
+}
+
+impl Renderer {
+    /// The network renderer. `weights` names the weights' origin; `weight_bytes` is hashed
+    /// into the fingerprint recorded in the dataset settings.
+    #[must_use]
+    pub fn network(
+        generator: Generator,
+        config: GeneratorConfig,
+        options: RenderOptions,
+        device: Device,
+        weights: String,
+        weight_bytes: &[u8],
+    ) -> Self {
+        Self::Network(Network {
+            generator: Mutex::new(generator),
+            config,
+            options,
+            device,
+            weights,
+            fingerprint: format!("fnv1a64:{:016x}", fnv1a64(weight_bytes)),
+        })
+    }
+
+    /// The method's name (`uwnr`, `jerlov`, ...).
+    #[must_use]
+    pub fn name(&self) -> &'static str {
+        match self {
+            Self::Network(_) => "uwnr",
+            Self::Baseline(m) => m.name(),
+        }
+    }
+
+    /// The configuration recorded in the dataset settings.
+    #[must_use]
+    pub fn settings_params(&self) -> serde_json::Value {
+        match self {
+            Self::Network(n) => json!({
+                "weights": n.weights,
+                "fingerprint": n.fingerprint,
+                "config": n.config,
+            }),
+            Self::Baseline(m) => serde_json::to_value(m).unwrap_or(serde_json::Value::Null),
+        }
+    }
+
+    /// Whether renders must have a reference.
+    #[must_use]
+    pub fn needs_reference(&self) -> bool {
+        match self {
+            Self::Network(_) => true,
+            Self::Baseline(m) => m.needs_reference(),
+        }
+    }
+
+    /// Whether renders use a reference when references are given (Sea-thru fitted from the
+    /// reference does; Jerlov never does).
+    #[must_use]
+    pub fn uses_reference(&self) -> bool {
+        match self {
+            Self::Network(_) => true,
+            Self::Baseline(Method::Seathru(p)) => {
+                matches!(p.coefficients, SeathruCoefficients::FromReference(_))
+            }
+            Self::Baseline(m) => m.needs_reference(),
+        }
+    }
+
+    /// A per-thread handle (the network is cloned so threads never share it).
+    pub fn worker(&self) -> Result<Worker<'_>> {
+        Ok(match self {
+            Self::Network(n) => {
+                let generator = n
+                    .generator
+                    .lock()
+                    .map_err(|_| DatasetError::Invalid("the network's lock is poisoned".into()))?
+                    .clone();
+                Worker::Network {
+                    generator: Box::new(generator),
+                    net: n,
+                }
+            }
+            Self::Baseline(m) => Worker::Baseline(m),
+        })
+    }
+}
+
+/// A renderer as one worker thread holds it.
+pub enum Worker<'a> {
+    Network {
+        generator: Box<Generator>,
+        net: &'a Network,
+    },
+    Baseline(&'a Method),
+}
+
+/// What a render gets of its reference.
+pub struct ReferenceInput<'a> {
+    /// The decoded reference (baselines).
+    pub image: Option<&'a Image>,
+    /// The 256x256 light-field map (network).
+    pub light_field: &'a Image,
+}
+
+impl Worker<'_> {
+    /// Whether this worker needs the decoded reference image (the network needs only its
+    /// light field).
+    #[must_use]
+    pub fn wants_reference_image(&self) -> bool {
+        matches!(self, Self::Baseline(_))
+    }
+
+    /// Renders one pair; returns the underwater image and the parameters to record.
+    pub fn render(
+        &self,
+        clean: &Image,
+        depth: &Image,
+        reference: Option<ReferenceInput<'_>>,
+        seed: u64,
+    ) -> std::result::Result<(Image, serde_json::Value), String> {
+        match self {
+            Self::Network { generator, net } => {
+                let reference = reference.ok_or("the network needs a reference")?;
+                let lf = uwnr_core::resize::resize_bilinear(
+                    reference.light_field,
+                    clean.width(),
+                    clean.height(),
+                )
+                .map_err(|e| e.to_string())?;
+                let out =
+                    uwnr_model::render(generator, clean, depth, &lf, &net.options, &net.device)
+                        .map_err(|e| format!("rendering: {e}"))?;
+                Ok((out, json!({ "weights": net.weights })))
+            }
+            Self::Baseline(method) => {
+                let input = RenderInput {
+                    clean,
+                    depth,
+                    reference: reference.and_then(|r| r.image),
+                };
+                let rendered = uwnr_baselines::render(method, &input, seed)
+                    .map_err(|e| format!("rendering with {}: {e}", method.name()))?;
+                Ok((rendered.image, rendered.params))
+            }
+        }
+    }
+}
+
+/// FNV-1a, 64 bit: a fingerprint of the weights (identity, not security).
+#[must_use]
+pub fn fnv1a64(bytes: &[u8]) -> u64 {
+    const OFFSET: u64 = 0xcbf2_9ce4_8422_2325;
+    const PRIME: u64 = 0x0000_0100_0000_01b3;
+    bytes
+        .iter()
+        .fold(OFFSET, |h, &b| (h ^ u64::from(b)).wrapping_mul(PRIME))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fnv_matches_published_vectors() {
+        assert_eq!(fnv1a64(b""), 0xcbf2_9ce4_8422_2325);
+        assert_eq!(fnv1a64(b"a"), 0xaf63_dc4c_8601_ec8c);
+        assert_eq!(fnv1a64(b"foobar"), 0x8594_4171_f739_67e8);
+    }
+}

@@ -1,0 +1,680 @@
+//! A dataset run: render every planned pair that is not yet in the manifest.
+//!
+//! `jobs` worker threads take clean images from a shared queue; each decodes its image, fits it
+//! to the pair size, computes its depth once, draws its references, and renders and writes its K
+//! pairs, while the other workers are at other stages of their own images, so decoding, depth,
+//! rendering and encoding overlap. Finished pairs go through a bounded channel to the calling
+//! thread, the only writer of the manifest. Memory is bounded by `jobs` images in flight plus
+//! the light-field cache (one 256x256 u8 map, 192 KiB, per reference used).
+//!
+//! Crash safety: every file is written to a temporary name and renamed; a pair's manifest line
+//! is appended, as one write, only after all its files are in place. A run killed at any moment
+//! leaves complete pairs in the manifest, perhaps files of unfinished pairs (rewritten
+//! identically on resume) and perhaps one torn last manifest line (dropped on resume).
+//!
+//! Determinism: a pair depends only on its inputs, its references (a seeded draw per clean
+//! image, see [`ReferenceOrder`]) and its seed ([`pair_seed`]), never on which thread or shard
+//! made it or when. A complete run rewrites its manifest in pair order, so the same command gives
+//! byte-identical folders whatever `jobs` is.
+
+use std::collections::{HashMap, HashSet};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::mpsc::{SyncSender, sync_channel};
+use std::sync::{Arc, OnceLock};
+use std::time::Instant;
+
+use uwnr_core::Image;
+use uwnr_core::io::{DecodeLimits, load_rgb, save_gray16, save_rgb};
+use uwnr_core::lightfield::light_field;
+use uwnr_core::resize::{U8Image, resize_bilinear};
+use uwnr_depth::{DepthSource, PreparedDepth};
+
+use crate::error::{DatasetError, Result, io_err};
+use crate::manifest::{
+    CLEAN_DIR, DEPTH_DIR, FORMAT, Failure, LIGHTFIELD_DIR, ManifestWriter, PAIR_DIRS, Record,
+    Settings, UNDERWATER_DIR, failed_name, manifest_name, read_manifest, temp_target,
+    write_failures, write_manifest,
+};
+use crate::plan::{ReferenceOrder, Shard, Size, discover_images, pair_seed};
+use crate::renderer::{ReferenceInput, Renderer, Worker};
+
+/// What to generate.
+#[derive(Clone, Debug)]
+pub struct Spec {
+    /// Clean images: files, or folders searched recursively.
+    pub clean: Vec<PathBuf>,
+    /// Real underwater references: files, or folders searched recursively.
+    pub references: Vec<PathBuf>,
+    /// Renders per clean image (K), each after a different reference.
+    pub per_image: usize,
+    /// Seed of the reference draw and of the methods' random parameters.
+    pub seed: u64,
+    /// Pair size.
+    pub size: Size,
+    /// Write `depth/`.
+    pub save_depth: bool,
+    /// Write `lightfield/`.
+    pub save_lightfield: bool,
+    /// Where depth comes from.
+    pub depth: DepthSource,
+}
+
+/// How to run it.
+#[derive(Clone, Debug)]
+pub struct RunOptions {
+    /// Render only this shard's pairs.
+    pub shard: Option<Shard>,
+    /// Worker threads.
+    pub jobs: usize,
+    /// Limits checked before decoding any image.
+    pub limits: DecodeLimits,
+    /// Write `preview.png` and `index.html` when an unsharded run completes.
+    pub gallery: bool,
+}
+
+/// Progress of a run, reported on the calling thread.
+#[derive(Debug)]
+pub enum Event<'a> {
+    /// The plan: pairs this run (shard) owns, how many were already done, how many to make.
+    Start {
+        planned: usize,
+        done: usize,
+        todo: usize,
+    },
+    /// A pair was completed.
+    Pair(&'a Record),
+    /// An item failed (the run goes on).
+    Failed(&'a Failure),
+    /// Something worth telling the user.
+    Note(&'a str),
+}
+
+/// The outcome of a run.
+#[derive(Debug, Default)]
+pub struct Summary {
+    /// Pairs this run (shard) owns.
+    pub planned: usize,
+    /// Pairs made by this run.
+    pub rendered: usize,
+    /// Pairs already complete from an earlier run.
+    pub skipped: usize,
+    /// What failed.
+    pub failures: Vec<Failure>,
+    /// Wall time in seconds.
+    pub secs: f64,
+    /// The run was stopped before the end.
+    pub interrupted: bool,
+    /// Every owned pair is in the manifest.
+    pub complete: bool,
+}
+
+enum Msg {
+    Pair(Record),
+    Failed(Failure),
+    Note(String),
+}
+
+/// Per-reference light fields, each computed once; `Err` for unreadable references.
+type RefCache = Vec<OnceLock<std::result::Result<Arc<Image>, String>>>;
+
+/// Generates (or finishes) the dataset in `out`.
+///
+/// Errors are for runs that cannot start (bad inputs, a folder made with other settings, an
+/// unwritable folder); items that fail are listed in the summary and in the failure file.
+pub fn generate(
+    out: &Path,
+    spec: &Spec,
+    renderer: &Renderer,
+    opts: &RunOptions,
+    stop: &AtomicBool,
+    observer: &mut dyn FnMut(Event<'_>),
+) -> Result<Summary> {
+    let start = Instant::now();
+    if spec.per_image == 0 {
+        return Err(DatasetError::Invalid(
+            "--per-image must be at least 1".into(),
+        ));
+    }
+    std::fs::create_dir_all(out).map_err(io_err(out))?;
+    let exclude = out.canonicalize().map_err(io_err(out))?;
+    let cleans = discover_images(&spec.clean, "clean", Some(&exclude))?;
+    if cleans.is_empty() {
+        return Err(DatasetError::Invalid("no clean images given".into()));
+    }
+    let uses_refs = renderer.uses_reference() && !spec.references.is_empty();
+    let refs = if uses_refs {
+        discover_images(&spec.references, "reference", Some(&exclude))?
+    } else {
+        Vec::new()
+    };
+    if renderer.needs_reference() && refs.is_empty() {
+        return Err(DatasetError::Invalid(format!(
+            "--method {} needs --references (real underwater images)",
+            renderer.name()
+        )));
+    }
+    if !spec.references.is_empty() && !renderer.uses_reference() {
+        observer(Event::Note(&format!(
+            "note: --method {} with these settings uses no reference; --references is ignored",
+            renderer.name()
+        )));
+    }
+    if !refs.is_empty() && spec.per_image > refs.len() {
+        return Err(DatasetError::Invalid(format!(
+            "--per-image {} draws that many different references per clean image, but only {} \
+             references were given",
+            spec.per_image,
+            refs.len()
+        )));
+    }
+
+    let settings = Settings {
+        format: FORMAT.into(),
+        method: renderer.name().into(),
+        method_params: renderer.settings_params(),
+        depth_source: serde_json::to_value(&spec.depth).unwrap_or_default(),
+        per_image: spec.per_image,
+        seed: spec.seed,
+        size: spec.size,
+        save_depth: spec.save_depth,
+        save_lightfield: spec.save_lightfield,
+        clean: cleans
+            .iter()
+            .map(|p| p.to_string_lossy().into_owned())
+            .collect(),
+        references: refs
+            .iter()
+            .map(|p| p.to_string_lossy().into_owned())
+            .collect(),
+        pairs_planned: cleans.len() * spec.per_image,
+    };
+    match Settings::read(out) {
+        Ok(existing) => {
+            if let Some((field, there, now)) = existing.first_difference(&settings) {
+                return Err(DatasetError::SettingsMismatch {
+                    out: out.to_path_buf(),
+                    field,
+                    existing: there,
+                    requested: now,
+                });
+            }
+        }
+        Err(DatasetError::Io { source, .. }) if source.kind() == std::io::ErrorKind::NotFound => {
+            settings.write(out)?;
+        }
+        Err(e) => return Err(e),
+    }
+    let mut dirs = vec![UNDERWATER_DIR, CLEAN_DIR];
+    if spec.save_depth {
+        dirs.push(DEPTH_DIR);
+    }
+    if spec.save_lightfield {
+        dirs.push(LIGHTFIELD_DIR);
+    }
+    for d in &dirs {
+        let p = out.join(d);
+        std::fs::create_dir_all(&p).map_err(io_err(&p))?;
+    }
+
+    // What is done already.
+    let planned = settings.planned_pairs(opts.shard);
+    let by_id: HashMap<&str, &crate::manifest::PlannedPair> =
+        planned.iter().map(|p| (p.id.as_str(), p)).collect();
+    let manifest_path = out.join(manifest_name(opts.shard));
+    let existing = read_manifest(&manifest_path)?;
+    let mut kept: Vec<Record> = Vec::new();
+    let mut done: HashSet<String> = HashSet::new();
+    let mut dropped = existing.bad_lines.len() + usize::from(existing.torn_tail);
+    for (_, r) in existing.records {
+        let valid = by_id.get(r.id.as_str()).is_some_and(|p| p.index == r.index)
+            && !done.contains(&r.id)
+            && r.depth.is_some() == spec.save_depth
+            && r.lightfield.is_some() == spec.save_lightfield
+            && r.files().all(|f| out.join(f).is_file());
+        if valid {
+            done.insert(r.id.clone());
+            kept.push(r);
+        } else {
+            dropped += 1;
+        }
+    }
+    if dropped > 0 {
+        observer(Event::Note(&format!(
+            "note: {dropped} manifest line(s) were torn, unreadable or pointed at missing files; \
+             those pairs are made again"
+        )));
+        write_manifest(&manifest_path, &mut kept)?;
+    }
+    remove_stale_temps(out, &dirs, &by_id, opts.shard.is_none())?;
+
+    // The work: every clean image with a pair still to make.
+    let mut todo: Vec<(usize, Vec<usize>)> = Vec::new();
+    for p in &planned {
+        if done.contains(&p.id) {
+            continue;
+        }
+        match todo.last_mut() {
+            Some((i, ks)) if *i == p.clean_index => ks.push(p.k),
+            _ => todo.push((p.clean_index, vec![p.k])),
+        }
+    }
+    let todo_pairs: usize = todo.iter().map(|(_, ks)| ks.len()).sum();
+    observer(Event::Start {
+        planned: planned.len(),
+        done: done.len(),
+        todo: todo_pairs,
+    });
+
+    let prepared = spec
+        .depth
+        .prepare()
+        .map_err(|e| DatasetError::Invalid(format!("preparing the depth source: {e}")))?;
+    let names = settings.names();
+    let ctx = Context {
+        out,
+        spec,
+        cleans: &cleans,
+        names: &names,
+        refs: &refs,
+        ref_cache: (0..refs.len()).map(|_| OnceLock::new()).collect(),
+        depth: &prepared,
+        limits: &opts.limits,
+        stop,
+    };
+
+    let mut summary = Summary {
+        planned: planned.len(),
+        skipped: done.len(),
+        ..Summary::default()
+    };
+    let mut writer = ManifestWriter::open(&manifest_path)?;
+    let mut write_error: Option<DatasetError> = None;
+    let next = AtomicUsize::new(0);
+    let jobs = opts.jobs.max(1);
+    std::thread::scope(|scope| {
+        let (tx, rx) = sync_channel::<Msg>(2 * jobs);
+        for _ in 0..jobs {
+            let tx = tx.clone();
+            let (ctx, todo, next) = (&ctx, &todo, &next);
+            scope.spawn(move || {
+                let worker = match renderer.worker() {
+                    Ok(w) => w,
+                    Err(e) => {
+                        let _ = tx.send(Msg::Note(format!("a worker could not start: {e}")));
+                        return;
+                    }
+                };
+                loop {
+                    if ctx.stop.load(Ordering::Relaxed) {
+                        break;
+                    }
+                    let t = next.fetch_add(1, Ordering::Relaxed);
+                    let Some((i, ks)) = todo.get(t) else { break };
+                    if !ctx.make_clean(&worker, *i, ks, &tx) {
+                        break;
+                    }
+                }
+            });
+        }
+        drop(tx);
+        for msg in rx {
+            match msg {
+                Msg::Pair(r) => {
+                    if write_error.is_none() {
+                        if let Err(e) = writer.append(&r) {
+                            // The manifest cannot grow: stop; everything recorded so far holds.
+                            ctx.stop.store(true, Ordering::Relaxed);
+                            write_error = Some(e);
+                            continue;
+                        }
+                        done.insert(r.id.clone());
+                        summary.rendered += 1;
+                        observer(Event::Pair(&r));
+                        kept.push(r);
+                    }
+                }
+                Msg::Failed(f) => {
+                    observer(Event::Failed(&f));
+                    summary.failures.push(f);
+                }
+                Msg::Note(n) => observer(Event::Note(&n)),
+            }
+        }
+    });
+    if let Some(e) = write_error {
+        return Err(e);
+    }
+    writer.sync()?;
+    summary.interrupted = stop.load(Ordering::Relaxed);
+    summary.complete = planned.iter().all(|p| done.contains(&p.id));
+    summary.failures.sort_by(|a, b| a.source.cmp(&b.source));
+    if !summary.interrupted {
+        write_failures(&out.join(failed_name(opts.shard)), &summary.failures)?;
+    }
+    if !summary.interrupted {
+        // Every owned pair was made or failed: put the manifest in pair order, so the folder is
+        // the same whatever the job count.
+        write_manifest(&manifest_path, &mut kept)?;
+        if opts.shard.is_none() && opts.gallery {
+            crate::gallery::write(out, &kept)?;
+        }
+    }
+    summary.secs = start.elapsed().as_secs_f64();
+    Ok(summary)
+}
+
+/// Removes temporary files left by killed runs: in an unsharded run all of them; in a shard only
+/// those of its own pairs (another shard may be writing the rest right now).
+fn remove_stale_temps(
+    out: &Path,
+    dirs: &[&str],
+    owned: &HashMap<&str, &crate::manifest::PlannedPair>,
+    all: bool,
+) -> Result<()> {
+    for d in PAIR_DIRS.iter().filter(|d| dirs.contains(d)) {
+        let dir = out.join(d);
+        for entry in std::fs::read_dir(&dir).map_err(io_err(&dir))? {
+            let entry = entry.map_err(io_err(&dir))?;
+            let name = entry.file_name().to_string_lossy().into_owned();
+            let Some(target) = temp_target(&name) else {
+                continue;
+            };
+            let id = target.strip_suffix(".png").unwrap_or(target);
+            if all || owned.contains_key(id) {
+                let p = entry.path();
+                std::fs::remove_file(&p).map_err(io_err(&p))?;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Shared, read-only state of the workers.
+struct Context<'a> {
+    out: &'a Path,
+    spec: &'a Spec,
+    cleans: &'a [PathBuf],
+    names: &'a [String],
+    refs: &'a [PathBuf],
+    ref_cache: RefCache,
+    depth: &'a PreparedDepth,
+    limits: &'a DecodeLimits,
+    stop: &'a AtomicBool,
+}
+
+impl Context<'_> {
+    /// Makes the pairs `ks` of clean image `i`. Returns false when the receiver is gone.
+    fn make_clean(
+        &self,
+        worker: &Worker<'_>,
+        i: usize,
+        ks: &[usize],
+        tx: &SyncSender<Msg>,
+    ) -> bool {
+        let source = &self.cleans[i];
+        let ids: Vec<String> = ks
+            .iter()
+            .map(|&k| crate::plan::pair_id(&self.names[i], k))
+            .collect();
+        let fail = |ids: Vec<String>, reason: String| {
+            tx.send(Msg::Failed(Failure {
+                source: source.to_string_lossy().into_owned(),
+                ids,
+                reason,
+            }))
+            .is_ok()
+        };
+        let clean = match load_rgb(source, self.limits)
+            .map_err(|e| e.to_string())
+            .and_then(|img| fit(&img, self.spec.size).map_err(|e| e.to_string()))
+        {
+            Ok(c) => c,
+            Err(reason) => return fail(ids, reason),
+        };
+        let depth = match self.depth.depth_for(&clean, Some(source)) {
+            Ok(d) => d.map,
+            Err(e) => return fail(ids, format!("depth: {e}")),
+        };
+        let references = if self.refs.is_empty() {
+            Vec::new()
+        } else {
+            match self.draw(i, tx) {
+                Some(r) => r,
+                None => return false,
+            }
+        };
+        let lf_dir_needed = self.spec.save_lightfield;
+        for (&k, id) in ks.iter().zip(ids) {
+            if self.stop.load(Ordering::Relaxed) {
+                return true;
+            }
+            let index = (i * self.spec.per_image + k) as u64;
+            let seed = pair_seed(self.spec.seed, index);
+            let reference = if self.refs.is_empty() {
+                None
+            } else {
+                match references.get(k) {
+                    Some(r) => Some(r),
+                    None => {
+                        if !fail(
+                            vec![id],
+                            format!(
+                                "only {} readable references left to draw from",
+                                references.len()
+                            ),
+                        ) {
+                            return false;
+                        }
+                        continue;
+                    }
+                }
+            };
+            let result =
+                self.make_pair(worker, &clean, &depth, reference, seed, &id, lf_dir_needed);
+            let msg = match result {
+                Ok((params, reference_source)) => Msg::Pair(Record {
+                    id: id.clone(),
+                    index,
+                    clean_source: source.to_string_lossy().into_owned(),
+                    reference_source,
+                    method: self.spec_method(worker),
+                    params,
+                    seed,
+                    width: clean.width(),
+                    height: clean.height(),
+                    underwater: format!("{UNDERWATER_DIR}/{id}.png"),
+                    clean: format!("{CLEAN_DIR}/{id}.png"),
+                    depth: self
+                        .spec
+                        .save_depth
+                        .then(|| format!("{DEPTH_DIR}/{id}.png")),
+                    lightfield: self
+                        .spec
+                        .save_lightfield
+                        .then(|| format!("{LIGHTFIELD_DIR}/{id}.png")),
+                }),
+                Err(reason) => Msg::Failed(Failure {
+                    source: source.to_string_lossy().into_owned(),
+                    ids: vec![id],
+                    reason,
+                }),
+            };
+            if tx.send(msg).is_err() {
+                return false;
+            }
+        }
+        true
+    }
+
+    fn spec_method(&self, worker: &Worker<'_>) -> String {
+        match worker {
+            Worker::Network { .. } => "uwnr".into(),
+            Worker::Baseline(m) => m.name().into(),
+        }
+    }
+
+    /// The references of clean image `i`, in draw order: the first K readable ones of its
+    /// seeded permutation. `None` when the receiver is gone.
+    fn draw(&self, i: usize, tx: &SyncSender<Msg>) -> Option<Vec<(usize, Arc<Image>)>> {
+        let mut chosen = Vec::with_capacity(self.spec.per_image);
+        for r in ReferenceOrder::new(self.spec.seed, i, self.refs.len()) {
+            if chosen.len() == self.spec.per_image {
+                break;
+            }
+            let mut first_failure = None;
+            let entry = self.ref_cache[r].get_or_init(|| {
+                let path = &self.refs[r];
+                let lf = load_rgb(path, self.limits)
+                    .map_err(|e| e.to_string())
+                    .and_then(|img| light_field(&img).map_err(|e| e.to_string()));
+                if let Err(reason) = &lf {
+                    first_failure = Some(reason.clone());
+                }
+                lf.map(Arc::new)
+            });
+            match entry {
+                Ok(lf) => chosen.push((r, Arc::clone(lf))),
+                Err(_) => {
+                    // Reported once, by the thread that found it; the draw moves on.
+                    if let Some(reason) = first_failure {
+                        let f = Failure {
+                            source: self.refs[r].to_string_lossy().into_owned(),
+                            ids: Vec::new(),
+                            reason: format!("unreadable reference, skipped: {reason}"),
+                        };
+                        tx.send(Msg::Failed(f)).ok()?;
+                    }
+                }
+            }
+        }
+        Some(chosen)
+    }
+
+    /// Renders one pair and writes its files. Returns the recorded parameters and the
+    /// reference's path.
+    #[allow(clippy::too_many_arguments)]
+    fn make_pair(
+        &self,
+        worker: &Worker<'_>,
+        clean: &Image,
+        depth: &Image,
+        reference: Option<&(usize, Arc<Image>)>,
+        seed: u64,
+        id: &str,
+        save_lightfield: bool,
+    ) -> std::result::Result<(serde_json::Value, Option<String>), String> {
+        let decoded;
+        let (input, reference_source) = match reference {
+            Some((r, lf)) => {
+                let path = &self.refs[*r];
+                let image = if worker.wants_reference_image() {
+                    decoded = load_rgb(path, self.limits)
+                        .map_err(|e| format!("reading reference {}: {e}", path.display()))?;
+                    Some(&decoded)
+                } else {
+                    None
+                };
+                (
+                    Some(ReferenceInput {
+                        image,
+                        light_field: lf,
+                    }),
+                    Some(path.to_string_lossy().into_owned()),
+                )
+            }
+            None => (None, None),
+        };
+        let lf = input.as_ref().map(|r| r.light_field);
+        let (underwater, params) = worker.render(clean, depth, input, seed)?;
+        let name = format!("{id}.png");
+        let write = |dir: &str, f: &dyn Fn(&Path) -> uwnr_core::Result<()>| {
+            let p = self.out.join(dir).join(&name);
+            f(&p).map_err(|e| format!("writing {}: {e}", p.display()))
+        };
+        // The underwater image last: a pair is only recorded once all of it is on disk anyway,
+        // but a half-made pair then never has a render without its clean image.
+        write(CLEAN_DIR, &|p| save_rgb(p, clean))?;
+        if self.spec.save_depth {
+            write(DEPTH_DIR, &|p| save_gray16(p, depth))?;
+        }
+        if save_lightfield {
+            let Some(lf) = lf else {
+                return Err("--save-lightfield needs a reference for every pair".into());
+            };
+            let at_size =
+                resize_bilinear(lf, clean.width(), clean.height()).map_err(|e| e.to_string())?;
+            write(LIGHTFIELD_DIR, &|p| save_rgb(p, &at_size))?;
+        }
+        write(UNDERWATER_DIR, &|p| save_rgb(p, &underwater))?;
+        Ok((params, reference_source))
+    }
+}
+
+/// The clean image as the pair holds it: fitted to the pair size (cover and centre-crop for a
+/// fixed size) and quantised to 8 bits, so what is rendered is exactly what `clean/` stores.
+pub fn fit(img: &Image, size: Size) -> uwnr_core::Result<Image> {
+    let sized = match size {
+        Size::Native => img.clone(),
+        Size::Fixed { width, height } => {
+            let (w, h) = (img.width() as f64, img.height() as f64);
+            let scale = (width as f64 / w).max(height as f64 / h);
+            let sw = ((w * scale).round() as usize).max(width);
+            let sh = ((h * scale).round() as usize).max(height);
+            let scaled = if (sw, sh) == img.size() {
+                img.clone()
+            } else {
+                resize_bilinear(img, sw, sh)?
+            };
+            scaled.crop((sw - width) / 2, (sh - height) / 2, width, height)?
+        }
+    };
+    U8Image::from_image(&sized).to_image()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fit_covers_and_centre_crops() {
+        // 40x20 with a bright right half; fitting to 20x20 keeps the middle 20 columns.
+        let mut img = Image::filled(40, 20, 3, 0.0);
+        for c in 0..3 {
+            for y in 0..20 {
+                for x in 20..40 {
+                    img.plane_mut(c)[y * 40 + x] = 1.0;
+                }
+            }
+        }
+        let out = fit(
+            &img,
+            Size::Fixed {
+                width: 20,
+                height: 20,
+            },
+        )
+        .unwrap();
+        assert_eq!(out.size(), (20, 20));
+        assert_eq!(out.get(0, 10, 0), 0.0);
+        assert_eq!(out.get(0, 10, 19), 1.0);
+        // Upscaling to cover: 40x20 -> 80x80 needs 160x80, cropped to 80 wide.
+        let up = fit(
+            &img,
+            Size::Fixed {
+                width: 80,
+                height: 80,
+            },
+        )
+        .unwrap();
+        assert_eq!(up.size(), (80, 80));
+    }
+
+    #[test]
+    fn fit_quantises_to_8_bits() {
+        let img = Image::filled(4, 4, 3, 0.1234);
+        let out = fit(&img, Size::Native).unwrap();
+        let v = out.get(0, 0, 0) * 255.0;
+        assert!((v - v.round()).abs() < 1e-4);
+    }
+}

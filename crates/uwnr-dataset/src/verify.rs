@@ -1,0 +1,256 @@
+//! `uwnr dataset verify`: checks a dataset folder against its own settings and manifest. Every
+//! manifest line must parse and name a planned pair once; every file of every pair must exist,
+//! decode, and have the recorded size; the pair folders must hold nothing the manifest does not
+//! name; and every planned pair must be in the manifest or in a failure list.
+
+use std::collections::{HashMap, HashSet};
+use std::path::Path;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use rayon::prelude::*;
+use uwnr_core::io::{DecodeLimits, load_rgb};
+
+use crate::error::{Result, io_err};
+use crate::manifest::{
+    PAIR_DIRS, Record, Settings, failed_ids, read_failures, read_manifest, shard_of_file,
+    temp_target,
+};
+use crate::plan::Size;
+
+/// What verification found.
+#[derive(Debug, Default)]
+pub struct Report {
+    /// Pairs in the manifest(s).
+    pub pairs: usize,
+    /// Pairs the settings plan.
+    pub planned: usize,
+    /// Planned pairs accounted for by failure lists.
+    pub failed: usize,
+    /// Problems, one line each; empty when the dataset is sound.
+    pub problems: Vec<String>,
+    /// Facts worth knowing that are not problems.
+    pub notes: Vec<String>,
+}
+
+impl Report {
+    /// Whether the dataset passed.
+    #[must_use]
+    pub fn ok(&self) -> bool {
+        self.problems.is_empty()
+    }
+}
+
+/// The manifests and failure lists of a dataset folder: `manifest.jsonl` and any
+/// `manifest.shard-I-of-N.jsonl` (likewise `failed*.jsonl`).
+pub fn metadata_files(out: &Path) -> Result<(Vec<String>, Vec<String>)> {
+    let mut manifests = Vec::new();
+    let mut failed = Vec::new();
+    for entry in std::fs::read_dir(out).map_err(io_err(out))? {
+        let name = entry
+            .map_err(io_err(out))?
+            .file_name()
+            .to_string_lossy()
+            .into_owned();
+        if name == "manifest.jsonl" || shard_of_file(&name, "manifest").is_some() {
+            manifests.push(name);
+        } else if name == "failed.jsonl" || shard_of_file(&name, "failed").is_some() {
+            failed.push(name);
+        }
+    }
+    manifests.sort();
+    failed.sort();
+    Ok((manifests, failed))
+}
+
+/// Verifies the dataset in `out`. `progress(done, total)` is called as pairs are checked (from
+/// several threads).
+pub fn verify(out: &Path, progress: &(dyn Fn(usize, usize) + Sync)) -> Result<Report> {
+    let settings = Settings::read(out)?;
+    let mut report = Report {
+        planned: settings.pairs_planned,
+        ..Report::default()
+    };
+    let planned: HashMap<String, u64> = settings
+        .planned_pairs(None)
+        .into_iter()
+        .map(|p| (p.id, p.index))
+        .collect();
+    let (manifests, failed_files) = metadata_files(out)?;
+    if manifests.is_empty() {
+        report
+            .problems
+            .push("no manifest.jsonl: no pair was completed".into());
+    }
+    if manifests.len() > 1 || manifests.iter().any(|m| m != "manifest.jsonl") {
+        report.notes.push(format!(
+            "shard manifests present ({}); `uwnr dataset merge` joins them into manifest.jsonl",
+            manifests.join(", ")
+        ));
+    }
+
+    let mut records: Vec<Record> = Vec::new();
+    let mut seen: HashMap<String, String> = HashMap::new();
+    for m in &manifests {
+        let contents = read_manifest(&out.join(m))?;
+        for (line, reason) in &contents.bad_lines {
+            report.problems.push(format!("{m} line {line}: {reason}"));
+        }
+        if contents.torn_tail {
+            report.problems.push(format!(
+                "{m} ends in a torn line (an interrupted run): run the same command again"
+            ));
+        }
+        for (line, r) in contents.records {
+            let at = format!("{m} line {line}");
+            match planned.get(&r.id) {
+                None => {
+                    report
+                        .problems
+                        .push(format!("{at}: pair {} is not in the plan", r.id));
+                    continue;
+                }
+                Some(&index) if index != r.index => {
+                    report.problems.push(format!(
+                        "{at}: pair {} has index {}, the plan says {index}",
+                        r.id, r.index
+                    ));
+                    continue;
+                }
+                Some(_) => {}
+            }
+            if let Some(first) = seen.get(&r.id) {
+                report.problems.push(format!(
+                    "{at}: pair {} is recorded twice (also {first})",
+                    r.id
+                ));
+                continue;
+            }
+            seen.insert(r.id.clone(), at.clone());
+            check_record_fields(&settings, &r, &at, &mut report.problems);
+            records.push(r);
+        }
+    }
+    report.pairs = records.len();
+
+    // Files: present, decodable, the recorded size. In parallel: decoding dominates.
+    let done = AtomicUsize::new(0);
+    let total = records.len();
+    let limits = DecodeLimits::default();
+    let mut file_problems: Vec<String> = records
+        .par_iter()
+        .flat_map_iter(|r| {
+            let mut problems = Vec::new();
+            for f in r.files() {
+                let path = out.join(f);
+                if !path.is_file() {
+                    problems.push(format!("{f} (pair {}) is missing", r.id));
+                    continue;
+                }
+                match load_rgb(&path, &limits) {
+                    Ok(img) if img.size() != (r.width, r.height) => problems.push(format!(
+                        "{f} is {}x{}, the manifest says {}x{}",
+                        img.width(),
+                        img.height(),
+                        r.width,
+                        r.height
+                    )),
+                    Ok(_) => {}
+                    Err(e) => problems.push(format!("{f} does not decode: {e}")),
+                }
+            }
+            progress(done.fetch_add(1, Ordering::Relaxed) + 1, total);
+            problems
+        })
+        .collect();
+    file_problems.sort();
+    report.problems.extend(file_problems);
+
+    // Files nobody recorded.
+    let named: HashSet<&str> = records.iter().flat_map(Record::files).collect();
+    for d in PAIR_DIRS {
+        let dir = out.join(d);
+        if !dir.is_dir() {
+            continue;
+        }
+        let mut stray = Vec::new();
+        for entry in std::fs::read_dir(&dir).map_err(io_err(&dir))? {
+            let name = entry
+                .map_err(io_err(&dir))?
+                .file_name()
+                .to_string_lossy()
+                .into_owned();
+            let rel = format!("{d}/{name}");
+            if temp_target(&name).is_some() {
+                stray.push(format!(
+                    "{rel} is a temporary file left by an interrupted run: run the same command \
+                     again to finish and clean up"
+                ));
+            } else if !named.contains(rel.as_str()) {
+                stray.push(format!("{rel} is not in the manifest"));
+            }
+        }
+        stray.sort();
+        report.problems.extend(stray);
+    }
+
+    // Completeness.
+    let mut failures = Vec::new();
+    for f in &failed_files {
+        failures.extend(read_failures(&out.join(f))?);
+    }
+    let failed = failed_ids(&failures);
+    let mut missing: Vec<(u64, &str)> = planned
+        .iter()
+        .filter(|(id, _)| !seen.contains_key(*id) && !failed.contains(*id))
+        .map(|(id, &i)| (i, id.as_str()))
+        .collect();
+    missing.sort_unstable();
+    report.failed = planned.keys().filter(|id| failed.contains(*id)).count();
+    if !missing.is_empty() {
+        let first: Vec<&str> = missing.iter().take(5).map(|(_, id)| *id).collect();
+        report.problems.push(format!(
+            "{} of {} planned pairs are missing (first: {}): run the same command again to finish",
+            missing.len(),
+            planned.len(),
+            first.join(", ")
+        ));
+    }
+    if report.failed > 0 {
+        report.notes.push(format!(
+            "{} planned pairs were not made because their inputs failed (see {})",
+            report.failed,
+            failed_files.join(", ")
+        ));
+    }
+    Ok(report)
+}
+
+/// Checks a record against the settings: method, file names, size.
+fn check_record_fields(settings: &Settings, r: &Record, at: &str, problems: &mut Vec<String>) {
+    if r.method != settings.method {
+        problems.push(format!(
+            "{at}: pair {} says method {}, the dataset is {}",
+            r.id, r.method, settings.method
+        ));
+    }
+    let expect = |dir: &str| format!("{dir}/{}.png", r.id);
+    if r.underwater != expect("underwater") || r.clean != expect("clean") {
+        problems.push(format!("{at}: pair {} names unexpected files", r.id));
+    }
+    if r.depth.is_some() != settings.save_depth
+        || r.lightfield.is_some() != settings.save_lightfield
+    {
+        problems.push(format!(
+            "{at}: pair {} does not list the depth / light-field files the settings ask for",
+            r.id
+        ));
+    }
+    if let Size::Fixed { width, height } = settings.size
+        && (r.width, r.height) != (width, height)
+    {
+        problems.push(format!(
+            "{at}: pair {} is {}x{}, the dataset is {width}x{height}",
+            r.id, r.width, r.height
+        ));
+    }
+}

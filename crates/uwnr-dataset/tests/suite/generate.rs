@@ -1,0 +1,186 @@
+//! Generation: layout, determinism across job counts, resume after a crash, bad input.
+
+use std::collections::HashSet;
+use std::sync::atomic::AtomicBool;
+
+use uwnr_core::io::{DecodeLimits, load_rgb};
+use uwnr_dataset::manifest::{Settings, read_manifest};
+use uwnr_dataset::{DatasetError, Event};
+
+use crate::common::{assert_same_tree, inputs, opts, reinhard, run, spec};
+
+#[test]
+fn writes_k_pairs_per_clean_image_with_distinct_references() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (clean, refs) = inputs(tmp.path(), 5, 4);
+    let out = tmp.path().join("out");
+    let s = run(&out, &spec(&clean, &refs, 3), &reinhard(), &opts(2));
+    assert_eq!((s.planned, s.rendered, s.skipped), (15, 15, 0));
+    assert!(s.complete && s.failures.is_empty());
+
+    let m = read_manifest(&out.join("manifest.jsonl")).unwrap();
+    assert!(m.bad_lines.is_empty() && !m.torn_tail);
+    let records: Vec<_> = m.records.into_iter().map(|(_, r)| r).collect();
+    assert_eq!(records.len(), 15);
+    // In pair order, and each clean image drew 3 different references.
+    assert!(records.windows(2).all(|w| w[0].index < w[1].index));
+    for chunk in records.chunks(3) {
+        let refs: HashSet<_> = chunk.iter().map(|r| r.reference_source.clone()).collect();
+        assert_eq!(refs.len(), 3, "{chunk:?}");
+        assert!(
+            chunk
+                .iter()
+                .all(|r| r.clean_source == chunk[0].clean_source)
+        );
+    }
+    // Files exist at the clean image's own size; the clean file is what was rendered.
+    let limits = DecodeLimits::default();
+    for r in &records {
+        let source = load_rgb(std::path::Path::new(&r.clean_source), &limits).unwrap();
+        for f in r.files() {
+            let img = load_rgb(&out.join(f), &limits).unwrap();
+            assert_eq!(img.size(), source.size(), "{f}");
+        }
+        let written = load_rgb(&out.join(&r.clean), &limits).unwrap();
+        assert_eq!(written.data(), source.data(), "8-bit source kept exactly");
+        assert_eq!(r.params["method"], "reinhard");
+    }
+    assert!(out.join("preview.png").is_file());
+    let html = std::fs::read_to_string(out.join("index.html")).unwrap();
+    assert!(html.contains("gallery/img00_0.jpg"), "{html}");
+    assert!(out.join("gallery/img00_0.jpg").is_file());
+    let settings = Settings::read(&out).unwrap();
+    assert_eq!(settings.pairs_planned, 15);
+}
+
+#[test]
+fn the_same_command_gives_identical_folders_whatever_the_job_count() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (clean, refs) = inputs(tmp.path(), 7, 5);
+    let sp = spec(&clean, &refs, 2);
+    let (a, b, c) = (
+        tmp.path().join("j1"),
+        tmp.path().join("j2"),
+        tmp.path().join("j4"),
+    );
+    run(&a, &sp, &reinhard(), &opts(1));
+    run(&b, &sp, &reinhard(), &opts(2));
+    run(&c, &sp, &reinhard(), &opts(4));
+    assert_same_tree(&a, &b);
+    assert_same_tree(&a, &c);
+}
+
+#[test]
+fn a_crashed_run_resumes_to_the_same_folder() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (clean, refs) = inputs(tmp.path(), 6, 4);
+    let sp = spec(&clean, &refs, 2);
+    let full = tmp.path().join("full");
+    run(&full, &sp, &reinhard(), &opts(2));
+
+    // What a kill leaves: part of the manifest, a torn last line, files of unfinished pairs
+    // (one of them half-written under its temporary name), no gallery yet.
+    let crashed = tmp.path().join("crashed");
+    run(&crashed, &sp, &reinhard(), &opts(2));
+    let text = std::fs::read_to_string(crashed.join("manifest.jsonl")).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    let mut torn = lines[..5].join("\n");
+    torn.push('\n');
+    torn.push_str(&lines[5][..lines[5].len() / 2]);
+    std::fs::write(crashed.join("manifest.jsonl"), torn).unwrap();
+    std::fs::write(
+        crashed.join("underwater/.img03_1.png.999-0.tmp"),
+        b"partial",
+    )
+    .unwrap();
+    std::fs::remove_file(crashed.join("underwater/img05_0.png")).unwrap();
+    std::fs::remove_file(crashed.join("index.html")).unwrap();
+
+    let mut notes = Vec::new();
+    let stop = AtomicBool::new(false);
+    let s = uwnr_dataset::generate(&crashed, &sp, &reinhard(), &opts(2), &stop, &mut |e| {
+        if let Event::Note(n) = e {
+            notes.push(n.to_string());
+        }
+    })
+    .unwrap();
+    assert_eq!((s.skipped, s.rendered), (5, 7));
+    assert!(notes.iter().any(|n| n.contains("torn")), "{notes:?}");
+    assert_same_tree(&full, &crashed);
+
+    // Run again: nothing to do, nothing changes.
+    let s = run(&crashed, &sp, &reinhard(), &opts(1));
+    assert_eq!((s.skipped, s.rendered), (12, 0));
+    assert_same_tree(&full, &crashed);
+}
+
+#[test]
+fn resuming_with_other_settings_is_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (clean, refs) = inputs(tmp.path(), 3, 3);
+    let out = tmp.path().join("out");
+    run(&out, &spec(&clean, &refs, 1), &reinhard(), &opts(1));
+    let mut other = spec(&clean, &refs, 1);
+    other.seed = 12;
+    let stop = AtomicBool::new(false);
+    let err = uwnr_dataset::generate(&out, &other, &reinhard(), &opts(1), &stop, &mut |_| {})
+        .unwrap_err();
+    assert!(
+        matches!(&err, DatasetError::SettingsMismatch { field, .. } if field == "seed"),
+        "{err}"
+    );
+}
+
+#[test]
+fn more_renders_than_references_is_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (clean, refs) = inputs(tmp.path(), 2, 2);
+    let stop = AtomicBool::new(false);
+    let err = uwnr_dataset::generate(
+        &tmp.path().join("out"),
+        &spec(&clean, &refs, 3),
+        &reinhard(),
+        &opts(1),
+        &stop,
+        &mut |_| {},
+    )
+    .unwrap_err();
+    assert!(err.to_string().contains("only 2 references"), "{err}");
+}
+
+#[test]
+fn unreadable_inputs_are_listed_and_the_run_goes_on() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (clean, refs) = inputs(tmp.path(), 4, 4);
+    std::fs::write(clean.join("a/broken.png"), b"\x89PNG\r\n\x1a\n not really").unwrap();
+    std::fs::write(refs.join("ref99.jpg"), b"\xff\xd8\xff truncated").unwrap();
+    let out = tmp.path().join("out");
+    // Three references per image out of five, one unreadable: every image still gets three.
+    let s = run(&out, &spec(&clean, &refs, 3), &reinhard(), &opts(2));
+    assert!(!s.complete);
+    let sources: Vec<&str> = s.failures.iter().map(|f| f.source.as_str()).collect();
+    assert!(
+        sources.iter().any(|f| f.ends_with("broken.png")),
+        "{sources:?}"
+    );
+    let clean_failure = s
+        .failures
+        .iter()
+        .find(|f| f.source.ends_with("broken.png"))
+        .unwrap();
+    assert_eq!(clean_failure.ids.len(), 3);
+    assert_eq!(s.rendered, 12);
+    let m = read_manifest(&out.join("manifest.jsonl")).unwrap();
+    assert!(m.records.iter().all(|(_, r)| {
+        !r.reference_source
+            .as_deref()
+            .unwrap()
+            .ends_with("ref99.jpg")
+    }));
+    // The failure list is on disk, and verify accounts for it.
+    let failed = std::fs::read_to_string(out.join("failed.jsonl")).unwrap();
+    assert!(failed.contains("broken.png"));
+    let report = uwnr_dataset::verify(&out, &|_, _| {}).unwrap();
+    assert!(report.ok(), "{:?}", report.problems);
+    assert_eq!(report.failed, 3);
+}

@@ -1,0 +1,6 @@
+//! Integration tests of `uwnr-depth`, in one binary so that the workspace links few large test executables.
+
+mod builtin;
+mod maps;
+mod onnx;
+mod rgbd_eval;

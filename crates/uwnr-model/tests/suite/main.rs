@@ -1,0 +1,4 @@
+//! Integration tests of `uwnr-model`, in one binary so that the workspace links few large test executables.
+
+mod parity;
+mod tiling;
