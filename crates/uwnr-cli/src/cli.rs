@@ -22,6 +22,9 @@ pub enum Command {
     Depth(DepthArgs),
     /// Describe the model: parameters, GMac at a size, where the weights came from.
     Info(InfoArgs),
+    /// Convert weights (safetensors or the authors' PyTorch checkpoint) to safetensors with the
+    /// authors' key names, the model config in the metadata, and a chosen precision.
+    Convert(ConvertArgs),
     /// Train the generator on paired folders (underwater/ + clean/), with exact resume.
     Train(TrainArgs),
     /// Score images with the field's metrics (PSNR, SSIM, UIQM, UCIQE, FD, KID).
@@ -347,6 +350,31 @@ pub struct InfoArgs {
     /// Base width of the architecture when no weights are given.
     #[arg(long, default_value_t = 64)]
     pub base_width: usize,
+}
+
+#[derive(Debug, Args)]
+pub struct ConvertArgs {
+    /// Weights to read: safetensors, or the authors' checkpoint (`torch.save({'G1': ...})`).
+    #[arg(value_name = "IN")]
+    pub input: PathBuf,
+    /// Safetensors file to write.
+    #[arg(value_name = "OUT.safetensors")]
+    pub output: PathBuf,
+    /// Precision of the written tensors.
+    #[arg(long, value_enum, default_value_t = DtypeArg::F32)]
+    pub dtype: DtypeArg,
+    /// Provenance recorded in the file's metadata (`uwnr.source`); default: kept from the
+    /// input, or the input's file name.
+    #[arg(long, value_name = "TEXT")]
+    pub source: Option<String>,
+}
+
+/// Tensor precision of written weights.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum DtypeArg {
+    F32,
+    F16,
+    Bf16,
 }
 
 /// Light-field loss variant.

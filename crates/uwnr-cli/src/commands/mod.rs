@@ -1,5 +1,6 @@
 //! One module per subcommand; shared pieces (model and depth set-up) live here.
 
+mod convert;
 mod dataset;
 mod depth;
 mod eval;
@@ -25,6 +26,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
         Command::Lightfield(a) => lightfield::run(&a),
         Command::Depth(a) => depth::run(&a),
         Command::Info(a) => info::run(&a),
+        Command::Convert(a) => convert::run(&a),
         Command::Train(a) => train::run(&a),
         Command::Eval(a) => eval::run(&a),
         Command::Dataset(a) => dataset::run(&a),
@@ -40,9 +42,17 @@ pub fn device(arg: DeviceArg) -> Result<Device> {
     uwnr_model::device_from_name(name).with_context(|| format!("selecting device {name:?}"))
 }
 
-/// Weights of the model shipped inside this binary, if the build has one.
+/// Weights of the model shipped inside this binary: `assets/model/uwnr-default.safetensors`,
+/// embedded at build time when it exists and the `bundled-model` feature is on (see `build.rs`).
 pub fn bundled_weights() -> Option<&'static [u8]> {
-    None
+    #[cfg(uwnr_bundled_model)]
+    {
+        Some(include_bytes!(env!("UWNR_BUNDLED_MODEL")))
+    }
+    #[cfg(not(uwnr_bundled_model))]
+    {
+        None
+    }
 }
 
 /// Loads the generator from `--weights`, or the bundled model.

@@ -3,6 +3,8 @@
 //! The network weights used here are the small width-8 parity fixture of uwnr-model (random
 //! weights): these tests check the tool's behaviour, not the rendering's look.
 
+use std::path::Path;
+
 use crate::common::{files_in, s, sample, stderr, uwnr, weights};
 
 #[test]
@@ -365,4 +367,54 @@ fn eval_without_reference_reports_set_distances() {
         "built-in features must not be called FID"
     );
     assert!(doc["mean"]["uiqm"].as_f64().unwrap().is_finite());
+}
+
+#[test]
+fn convert_writes_half_precision_weights_that_render_alike() {
+    let dir = tempfile::tempdir().unwrap();
+    let full = dir.path().join("w8-f32.safetensors");
+    let half = dir.path().join("w8-f16.safetensors");
+    let o = uwnr(&["convert", s(&weights()), s(&full), "--dtype", "f32"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = uwnr(&["convert", s(&full), s(&half), "--dtype", "f16"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let full_size = std::fs::metadata(&full).unwrap().len();
+    let half_size = std::fs::metadata(&half).unwrap().len();
+    assert!(half_size * 10 < full_size * 6, "{half_size} vs {full_size}");
+    let o = uwnr(&["info", "--weights", s(&half)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("F16"));
+
+    let render = |w: &Path, out: &Path| {
+        let o = uwnr(&[
+            "render",
+            s(&sample("clean-room.jpg")),
+            "--reference",
+            s(&sample("ref-green.png")),
+            "--weights",
+            s(w),
+            "--output",
+            s(out),
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        image::open(out).unwrap().to_rgb8()
+    };
+    let a = render(&full, &dir.path().join("a.png"));
+    let b = render(&half, &dir.path().join("b.png"));
+    let max = a
+        .as_raw()
+        .iter()
+        .zip(b.as_raw())
+        .map(|(x, y)| x.abs_diff(*y))
+        .max()
+        .unwrap();
+    assert!(max <= 3, "f16 weights change the render by up to {max}/255");
+
+    let o = uwnr(&[
+        "convert",
+        s(&sample("ref-green.png")),
+        s(&dir.path().join("x.safetensors")),
+    ]);
+    assert!(!o.status.success());
+    assert_eq!(stderr(&o).trim().lines().count(), 1, "{}", stderr(&o));
 }
