@@ -81,11 +81,11 @@ pub fn write(out: &Path, records: &[Record]) -> Result<()> {
                     .map_or(s.to_string(), |n| n.to_string_lossy().into_owned())
             })
             .unwrap_or_else(|| "no reference".into());
-        let _ = write!(
+        let _ = writeln!(
             cards,
             "<figure><a href=\"{u}\"><img src=\"{t}\" alt=\"{id}\" loading=\"lazy\"></a>\
              <figcaption><b>{id}</b> {w}x{h}<br>reference: {rf}<br>\
-             <a href=\"{c}\">clean</a> · <a href=\"{u}\">underwater</a></figcaption></figure>\n",
+             <a href=\"{c}\">clean</a> · <a href=\"{u}\">underwater</a></figcaption></figure>",
             u = esc(&r.underwater),
             t = esc(&name),
             id = esc(&r.id),

@@ -199,6 +199,10 @@ pub fn pair_seed(seed: u64, pair_index: u64) -> u64 {
     mix(mix(seed) ^ pair_index)
 }
 
+/// Mixed into the seed of the reference draw, so it is a different random stream from the pairs'
+/// seeds.
+const DRAW_STREAM: u64 = 0x005E_ED0F_2EF5;
+
 /// The order in which clean image `clean_index` draws references: a seeded random permutation
 /// of `0..n`, produced lazily (a Fisher-Yates shuffle one step per item), so taking the first K
 /// readable ones draws K references without replacement whatever the thread count or shard.
@@ -212,9 +216,7 @@ impl ReferenceOrder {
     /// The draw order of clean image `clean_index` among `n` references.
     #[must_use]
     pub fn new(seed: u64, clean_index: usize, n: usize) -> Self {
-        // A different stream from pair_seed's: the draw and the method's sampling stay
-        // independent.
-        let s = mix(mix(seed ^ 0x5EED_0F_2EF5) ^ clean_index as u64);
+        let s = mix(mix(seed ^ DRAW_STREAM) ^ clean_index as u64);
         Self {
             rng: ChaCha8Rng::seed_from_u64(s),
             items: (0..n).collect(),

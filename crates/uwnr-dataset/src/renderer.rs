@@ -26,7 +26,7 @@ pub struct Network {
 /// The rendering method of a dataset.
 pub enum Renderer {
     /// The UWNR network (needs references).
-    Network(Network),
+    Network(Box<Network>),
     /// A baseline; its random parameters are drawn from each pair's seed.
     Baseline(Method),
 }
@@ -43,14 +43,14 @@ impl Renderer {
         weights: String,
         weight_bytes: &[u8],
     ) -> Self {
-        Self::Network(Network {
+        Self::Network(Box::new(Network {
             generator: Mutex::new(generator),
             config,
             options,
             device,
             weights,
             fingerprint: format!("fnv1a64:{:016x}", fnv1a64(weight_bytes)),
-        })
+        }))
     }
 
     /// The method's name (`uwnr`, `jerlov`, ...).

@@ -13,14 +13,14 @@ use uwnr_depth::DepthSource;
 /// A textured RGB image whose content depends on `seed`.
 pub fn texture(width: usize, height: usize, seed: u64, tint: [f32; 3]) -> Image {
     let mut img = Image::filled(width, height, 3, 0.0);
-    for c in 0..3 {
+    for (c, &tint) in tint.iter().enumerate() {
         let plane = img.plane_mut(c);
         for y in 0..height {
             for x in 0..width {
                 let v = ((x as f32 * 0.37 + y as f32 * 0.21 + seed as f32 * 1.3 + c as f32).sin()
                     * 0.5
                     + 0.5)
-                    * tint[c];
+                    * tint;
                 plane[y * width + x] = v.clamp(0.0, 1.0);
             }
         }
