@@ -139,7 +139,18 @@ mod tests {
             other => panic!("{other:?}"),
         }
         let s = serde_json::to_string(&Method::Reinhard(ReinhardParams::default())).unwrap();
-        assert_eq!(s, r#"{"method":"reinhard","space":"lalphabeta"}"#);
+        assert_eq!(
+            s,
+            r#"{"method":"reinhard","space":"lalphabeta","match_std":true}"#
+        );
+        let rgb: Method = serde_json::from_str(r#"{"method":"reinhard","space":"rgb"}"#).unwrap();
+        assert_eq!(
+            rgb,
+            Method::Reinhard(ReinhardParams {
+                space: ColourSpace::Rgb,
+                match_std: true
+            })
+        );
         assert!(serde_json::from_str::<Method>(r#"{"method":"jerlow"}"#).is_err());
         assert!(!m.needs_reference());
         assert!(Method::Uisa(UisaParams::default()).needs_reference());

@@ -17,6 +17,9 @@
 //!   CIELAB only by its 8-bit scaling, which mean/std matching is invariant to, and its
 //!   quantisation).
 //!
+//! - **RGB**: the stored values; with `match_std: false` this is the per-channel mean shift
+//!   `x' = x − μ_src + μ_ref`, the simplest statistical baseline.
+//!
 //! The result is clipped to [0, 1]. A source channel with (almost) no spread is only shifted.
 
 use rayon::prelude::*;
@@ -46,6 +49,9 @@ pub enum ColourSpace {
     LAlphaBeta,
     /// CIE L\*a\*b\* (D65), as OpenCV-based implementations do it.
     Lab,
+    /// The stored RGB values themselves (with `match_std: false`, the plain per-channel mean
+    /// shift that serves as the simplest baseline).
+    Rgb,
 }
 
 impl ColourSpace {
@@ -53,6 +59,7 @@ impl ColourSpace {
         match self {
             Self::LAlphaBeta => rgb_to_lalphabeta_px(rgb, LALPHABETA_FLOOR),
             Self::Lab => rgb_to_lab_px(rgb),
+            Self::Rgb => rgb,
         }
     }
 
@@ -60,16 +67,29 @@ impl ColourSpace {
         match self {
             Self::LAlphaBeta => lalphabeta_to_rgb_px(v),
             Self::Lab => lab_to_rgb_px(v),
+            Self::Rgb => v,
         }
     }
 }
 
 /// Parameters of the colour transfer.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct ReinhardParams {
     /// The space the statistics are matched in.
     pub space: ColourSpace,
+    /// Scale each channel to the reference's standard deviation (Reinhard); `false` only shifts
+    /// the means.
+    pub match_std: bool,
+}
+
+impl Default for ReinhardParams {
+    fn default() -> Self {
+        Self {
+            space: ColourSpace::default(),
+            match_std: true,
+        }
+    }
 }
 
 /// Pixels of `img` converted to `space`, interleaved.
@@ -111,8 +131,9 @@ fn stats(px: &[[f64; 3]]) -> ChannelStats {
     }
 }
 
-/// `x' = (x − μ_src)·(σ_ref/σ_src) + μ_ref` per channel, with `(μ_ref, σ_ref) = target`.
-fn match_statistics(src: Vec<[f64; 3]>, target: ChannelStats) -> Vec<[f64; 3]> {
+/// `x' = (x − μ_src)·(σ_ref/σ_src) + μ_ref` per channel, with `(μ_ref, σ_ref) = target`; with
+/// `match_std` false the gain is 1 (a mean shift).
+fn match_statistics(src: Vec<[f64; 3]>, target: ChannelStats, match_std: bool) -> Vec<[f64; 3]> {
     let ChannelStats {
         mean: mu_s,
         std: sd_s,
@@ -122,7 +143,7 @@ fn match_statistics(src: Vec<[f64; 3]>, target: ChannelStats) -> Vec<[f64; 3]> {
         std: sd_t,
     } = target;
     let gain: [f64; 3] = std::array::from_fn(|c| {
-        if sd_s[c] > MIN_STD {
+        if match_std && sd_s[c] > MIN_STD {
             sd_t[c] / sd_s[c]
         } else {
             1.0
@@ -139,11 +160,12 @@ fn transfer_with_stats(
     clean: &Image,
     reference: &Image,
     space: ColourSpace,
+    match_std: bool,
 ) -> Result<(Image, ChannelStats)> {
     check_image(clean, "clean image", 3)?;
     check_image(reference, "reference", 3)?;
     let target = stats(&convert(reference, space));
-    let matched = match_statistics(convert(clean, space), target);
+    let matched = match_statistics(convert(clean, space), target, match_std);
     let rgb: Vec<[f64; 3]> = matched
         .into_par_iter()
         .with_min_len(PAR_CHUNK)
@@ -162,7 +184,7 @@ fn transfer_with_stats(
 
 /// Transfers the colour statistics of `reference` onto `clean` in `space`.
 pub fn transfer(clean: &Image, reference: &Image, space: ColourSpace) -> Result<Image> {
-    Ok(transfer_with_stats(clean, reference, space)?.0)
+    Ok(transfer_with_stats(clean, reference, space, true)?.0)
 }
 
 /// Renders `input.clean` with the colours of `input.reference` (required).
@@ -170,10 +192,12 @@ pub(crate) fn render(params: &ReinhardParams, input: &RenderInput) -> Result<Ren
     let reference = input
         .reference
         .ok_or(BaselineError::MissingReference { method: "reinhard" })?;
-    let (image, target) = transfer_with_stats(input.clean, reference, params.space)?;
+    let (image, target) =
+        transfer_with_stats(input.clean, reference, params.space, params.match_std)?;
     let params_json = json!({
         "method": "reinhard",
         "space": params.space,
+        "match_std": params.match_std,
         "reference_mean": round6_3(target.mean),
         "reference_std": round6_3(target.std),
     });
@@ -187,13 +211,25 @@ pub(crate) fn render(params: &ReinhardParams, input: &RenderInput) -> Result<Ren
 mod tests {
     use super::*;
 
+    #[test]
+    fn rgb_mean_shift_moves_each_channel_by_the_mean_difference() {
+        let clean = Image::from_planar(2, 1, 3, vec![0.2, 0.4, 0.5, 0.5, 0.1, 0.3]).unwrap();
+        let reference = Image::from_planar(1, 1, 3, vec![0.6, 0.3, 0.4]).unwrap();
+        let (out, _) = transfer_with_stats(&clean, &reference, ColourSpace::Rgb, false).unwrap();
+        // Means 0.3, 0.5, 0.2 -> 0.6, 0.3, 0.4: shifts +0.3, -0.2, +0.2.
+        let want = [0.5, 0.7, 0.3, 0.3, 0.3, 0.5];
+        for (got, want) in out.data().iter().zip(want) {
+            assert!((got - want).abs() < 1e-6, "{got} vs {want}");
+        }
+    }
+
     /// Round-trip error of a space: the paper's lαβ matrices (RGB→LMS and LMS→RGB, published to
     /// four decimals) are inverse only to about 0.7% (LMS→RGB·RGB→LMS has 0.0072 off the
     /// diagonal); CIELAB round-trips exactly.
     fn round_trip_tol(space: ColourSpace) -> f64 {
         match space {
             ColourSpace::LAlphaBeta => 8e-3,
-            ColourSpace::Lab => 1e-4,
+            ColourSpace::Lab | ColourSpace::Rgb => 1e-4,
         }
     }
 
@@ -211,7 +247,7 @@ mod tests {
         let reference = gradient(8, 8, [0.2, 0.6, 0.9]);
         for space in [ColourSpace::LAlphaBeta, ColourSpace::Lab] {
             let target = stats(&convert(&reference, space));
-            let got = stats(&match_statistics(convert(&clean, space), target));
+            let got = stats(&match_statistics(convert(&clean, space), target, true));
             for c in 0..3 {
                 let (dm, ds) = (got.mean[c] - target.mean[c], got.std[c] - target.std[c]);
                 assert!(
@@ -226,7 +262,7 @@ mod tests {
             mean: [0.5; 3],
             std: [7.0; 3],
         };
-        let out = match_statistics(flat, target);
+        let out = match_statistics(flat, target, true);
         assert!(out.iter().all(|p| *p == [0.5; 3]), "{out:?}");
     }
 

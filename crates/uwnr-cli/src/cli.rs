@@ -182,9 +182,13 @@ pub struct BaselineOpts {
     /// Sea-thru veiling light R,G,B in [0,1], with --seathru given.
     #[arg(long, value_name = "R,G,B", value_parser = parse_triple)]
     pub b_inf: Option<[f64; 3]>,
-    /// Colour space of the Reinhard transfer: lalphabeta (the paper's) or lab (CIELAB).
+    /// Colour space of the Reinhard transfer: lalphabeta (the paper's), lab (CIELAB) or rgb.
     #[arg(long, value_name = "SPACE")]
     pub reinhard_space: Option<String>,
+    /// Reinhard: shift the channel means only, without matching the spread (with
+    /// `--reinhard-space rgb`, the plain per-channel mean shift baseline).
+    #[arg(long)]
+    pub mean_only: bool,
 }
 
 #[derive(Debug, Args)]

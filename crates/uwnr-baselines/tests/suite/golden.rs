@@ -206,6 +206,7 @@ fn reinhard_lalphabeta_blue() {
 fn reinhard_lab_green() {
     let p = ReinhardParams {
         space: ColourSpace::Lab,
+        ..ReinhardParams::default()
     };
     check_golden(
         "reinhard-lab-green",

@@ -66,6 +66,11 @@ fn all_methods() -> Vec<Method> {
         Method::Reinhard(ReinhardParams::default()),
         Method::Reinhard(ReinhardParams {
             space: ColourSpace::Lab,
+            ..ReinhardParams::default()
+        }),
+        Method::Reinhard(ReinhardParams {
+            space: ColourSpace::Rgb,
+            match_std: false,
         }),
     ]
 }

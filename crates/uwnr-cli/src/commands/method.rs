@@ -119,8 +119,12 @@ pub fn baseline_method(
                 p.space = match s.to_ascii_lowercase().as_str() {
                     "lalphabeta" | "lab-ruderman" => ColourSpace::LAlphaBeta,
                     "lab" | "cielab" => ColourSpace::Lab,
-                    _ => bail!("unknown Reinhard colour space {s:?} (lalphabeta or lab)"),
+                    "rgb" => ColourSpace::Rgb,
+                    _ => bail!("unknown Reinhard colour space {s:?} (lalphabeta, lab or rgb)"),
                 };
+            }
+            if o.mean_only {
+                p.match_std = false;
             }
         }
         Method::Uisa(_) => {}
