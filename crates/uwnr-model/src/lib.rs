@@ -17,8 +17,8 @@ pub use generator::{ChannelMeans, Generator};
 pub use infer::{RenderOptions, render};
 pub use weights::{
     LoadedWeights, NamedTensor, TensorMap, WeightsDtype, WeightsFormat, WeightsInfo,
-    load_generator, load_generator_from_bytes, read_weights, read_weights_from_bytes,
-    save_generator,
+    load_generator, load_generator_from_bytes, read_tensor, read_tensor_file, read_weights,
+    read_weights_from_bytes, save_generator, write_tensor_file,
 };
 
 /// Names [`device_from_name`] accepts in this build.

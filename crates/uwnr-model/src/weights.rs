@@ -118,6 +118,26 @@ pub struct LoadedWeights {
 
 /// Reads a weights file (safetensors or PyTorch checkpoint, detected from its content).
 pub fn read_weights(path: &Path) -> Result<LoadedWeights> {
+    let (tensors, info) = read_tensor_file(path)?;
+    with_config(tensors, info)
+}
+
+/// Reads weights held in memory (e.g. embedded in a binary). A PyTorch checkpoint is written
+/// to a temporary file first, because its reader needs a seekable file.
+pub fn read_weights_from_bytes(bytes: &[u8]) -> Result<LoadedWeights> {
+    match detect_format(bytes, BYTES_SOURCE)? {
+        WeightsFormat::Safetensors => read_safetensors(bytes, BYTES_SOURCE),
+        WeightsFormat::TorchCheckpoint => {
+            let temp = TempFile::write(bytes)?;
+            read_checkpoint(&temp.path, BYTES_SOURCE)
+        }
+    }
+}
+
+/// Reads every tensor of a weights file of any network (safetensors or a PyTorch state dict /
+/// checkpoint, detected from the content), with `module.` prefixes stripped. Other networks'
+/// loaders (the enhancer's, for one) build on this.
+pub fn read_tensor_file(path: &Path) -> Result<(TensorMap, WeightsInfo)> {
     let io_err = |source| ModelError::Io {
         path: path.to_path_buf(),
         source,
@@ -132,22 +152,21 @@ pub fn read_weights(path: &Path) -> Result<LoadedWeights> {
     match detect_format(&head, &name)? {
         WeightsFormat::Safetensors => {
             let bytes = std::fs::read(path).map_err(io_err)?;
-            read_safetensors(&bytes, &name)
+            read_safetensors_tensors(&bytes, &name)
         }
-        WeightsFormat::TorchCheckpoint => read_checkpoint(path, &name),
+        WeightsFormat::TorchCheckpoint => read_checkpoint_tensors(path, &name),
     }
 }
 
-/// Reads weights held in memory (e.g. embedded in a binary). A PyTorch checkpoint is written
-/// to a temporary file first, because its reader needs a seekable file.
-pub fn read_weights_from_bytes(bytes: &[u8]) -> Result<LoadedWeights> {
-    match detect_format(bytes, BYTES_SOURCE)? {
-        WeightsFormat::Safetensors => read_safetensors(bytes, BYTES_SOURCE),
-        WeightsFormat::TorchCheckpoint => {
-            let temp = TempFile::write(bytes)?;
-            read_checkpoint(&temp.path, BYTES_SOURCE)
-        }
-    }
+/// Writes tensors as a safetensors file, atomically, in `dtype`, with `metadata`.
+pub fn write_tensor_file(
+    path: &Path,
+    tensors: &TensorMap,
+    dtype: WeightsDtype,
+    metadata: &BTreeMap<String, String>,
+) -> Result<()> {
+    let bytes = serialize_tensors(tensors, dtype, metadata, path)?;
+    write_atomic(path, &bytes)
 }
 
 /// Loads a generator from a weights file: builds the network from the stored (or inferred)
@@ -301,6 +320,22 @@ fn serialize_safetensors(
     metadata: &BTreeMap<String, String>,
     path: &Path,
 ) -> Result<Vec<u8>> {
+    let mut info = metadata.clone();
+    let config_json = serde_json::to_string(config).map_err(|e| ModelError::Metadata {
+        key: CONFIG_METADATA_KEY.into(),
+        reason: e.to_string(),
+    })?;
+    info.insert(CONFIG_METADATA_KEY.into(), config_json);
+    serialize_tensors(tensors, dtype, &info, path)
+}
+
+/// Serializes tensors to safetensors bytes with `metadata`.
+fn serialize_tensors(
+    tensors: &TensorMap,
+    dtype: WeightsDtype,
+    metadata: &BTreeMap<String, String>,
+    path: &Path,
+) -> Result<Vec<u8>> {
     let name = path.display().to_string();
     let st_err = |reason: String| ModelError::Safetensors {
         source_name: name.clone(),
@@ -336,11 +371,6 @@ fn serialize_safetensors(
         views.push((key.as_str(), view));
     }
     let mut info: HashMap<String, String> = metadata.clone().into_iter().collect();
-    let config_json = serde_json::to_string(config).map_err(|e| ModelError::Metadata {
-        key: CONFIG_METADATA_KEY.into(),
-        reason: e.to_string(),
-    })?;
-    info.insert(CONFIG_METADATA_KEY.into(), config_json);
     // The convention of Hugging Face tools for tensors in PyTorch layout.
     info.entry("format".into()).or_insert_with(|| "pt".into());
     safetensors::serialize(views, Some(info)).map_err(|e| st_err(e.to_string()))
@@ -365,6 +395,33 @@ fn detect_format(head: &[u8], name: &str) -> Result<WeightsFormat> {
 }
 
 fn read_safetensors(bytes: &[u8], name: &str) -> Result<LoadedWeights> {
+    let (tensors, info) = read_safetensors_tensors(bytes, name)?;
+    with_config(tensors, info)
+}
+
+/// The generator config stored in the metadata, or inferred from the tensor shapes.
+fn with_config(tensors: TensorMap, info: WeightsInfo) -> Result<LoadedWeights> {
+    let config = match info.metadata.get(CONFIG_METADATA_KEY) {
+        Some(json) => {
+            let config: GeneratorConfig =
+                serde_json::from_str(json).map_err(|e| ModelError::Metadata {
+                    key: CONFIG_METADATA_KEY.into(),
+                    reason: e.to_string(),
+                })?;
+            config.validate()?;
+            config
+        }
+        None => infer_config(&tensors)?,
+    };
+    Ok(LoadedWeights {
+        config,
+        tensors,
+        info,
+    })
+}
+
+/// Every tensor of a safetensors file (any network), with the file's facts.
+fn read_safetensors_tensors(bytes: &[u8], name: &str) -> Result<(TensorMap, WeightsInfo)> {
     let st_err = |reason: String| ModelError::Safetensors {
         source_name: name.to_string(),
         reason,
@@ -390,28 +447,15 @@ fn read_safetensors(bytes: &[u8], name: &str) -> Result<LoadedWeights> {
             },
         );
     }
-    let config = match metadata.get(CONFIG_METADATA_KEY) {
-        Some(json) => {
-            let config: GeneratorConfig =
-                serde_json::from_str(json).map_err(|e| ModelError::Metadata {
-                    key: CONFIG_METADATA_KEY.into(),
-                    reason: e.to_string(),
-                })?;
-            config.validate()?;
-            config
-        }
-        None => infer_config(&tensors)?,
-    };
-    Ok(LoadedWeights {
-        config,
+    Ok((
         tensors,
-        info: WeightsInfo {
+        WeightsInfo {
             format: WeightsFormat::Safetensors,
             dtype: widest.unwrap_or(WeightsDtype::F32),
             metadata,
             ignored_keys: Vec::new(),
         },
-    })
+    ))
 }
 
 fn decode_safetensors(key: &str, view: &TensorView<'_>) -> Result<(Vec<f32>, WeightsDtype)> {
@@ -451,6 +495,12 @@ fn decode_le<const N: usize>(bytes: &[u8], f: impl Fn([u8; N]) -> f32) -> Vec<f3
 }
 
 fn read_checkpoint(path: &Path, name: &str) -> Result<LoadedWeights> {
+    let (tensors, info) = read_checkpoint_tensors(path, name)?;
+    with_config(tensors, info)
+}
+
+/// Every tensor of a PyTorch checkpoint (a state dict, or one nested under `G1`).
+fn read_checkpoint_tensors(path: &Path, name: &str) -> Result<(TensorMap, WeightsInfo)> {
     let ck_err = |e: PytorchError| ModelError::Checkpoint {
         source_name: name.to_string(),
         reason: e.to_string(),
@@ -507,17 +557,15 @@ fn read_checkpoint(path: &Path, name: &str) -> Result<LoadedWeights> {
             reason: "no tensors found".into(),
         });
     }
-    let config = infer_config(&tensors)?;
-    Ok(LoadedWeights {
-        config,
+    Ok((
         tensors,
-        info: WeightsInfo {
+        WeightsInfo {
             format: WeightsFormat::TorchCheckpoint,
             dtype: widest.unwrap_or(WeightsDtype::F32),
             metadata: BTreeMap::new(),
             ignored_keys: Vec::new(),
         },
-    })
+    ))
 }
 
 fn strip_prefix(key: &str) -> String {
@@ -724,7 +772,7 @@ fn put_conv(sink: &mut TensorMap, prefix: &str, conv: &Conv2d, shape: [usize; 4]
 }
 
 /// Copies a tensor back to the host as f32.
-pub(crate) fn read_tensor<const D: usize>(t: Tensor<D>) -> Result<NamedTensor> {
+pub fn read_tensor<const D: usize>(t: Tensor<D>) -> Result<NamedTensor> {
     let shape = t.dims().to_vec();
     let data = t
         .try_into_data()

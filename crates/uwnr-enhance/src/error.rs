@@ -1,0 +1,32 @@
+//! Errors of the enhancement network.
+
+/// What can go wrong building, loading or running Shallow-UWnet.
+#[derive(Debug, thiserror::Error)]
+pub enum EnhanceError {
+    /// The config cannot build a network.
+    #[error("invalid Shallow-UWnet config: {0}")]
+    InvalidConfig(String),
+    /// A tensor the network needs is not in the weights file.
+    #[error("{source_name}: missing tensor {key:?} (is this a Shallow-UWnet weights file?)")]
+    MissingKey { source_name: String, key: String },
+    /// A tensor has the wrong shape.
+    #[error("{source_name}: tensor {key:?} has shape {got:?}, the network needs {expected:?}")]
+    ShapeMismatch {
+        source_name: String,
+        key: String,
+        expected: Vec<usize>,
+        got: Vec<usize>,
+    },
+    /// The file holds tensors the network does not have.
+    #[error("{source_name}: unexpected tensor {key:?} (weights of another network?)")]
+    UnexpectedKey { source_name: String, key: String },
+    /// Reading or writing weights, or a backend operation, failed.
+    #[error(transparent)]
+    Model(#[from] uwnr_model::ModelError),
+    /// An image operation failed.
+    #[error(transparent)]
+    Core(#[from] uwnr_core::CoreError),
+}
+
+/// Result with [`EnhanceError`].
+pub type Result<T> = std::result::Result<T, EnhanceError>;

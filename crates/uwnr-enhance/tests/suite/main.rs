@@ -1,0 +1,3 @@
+//! Integration tests of `uwnr-enhance`, in one binary.
+
+mod parity;
