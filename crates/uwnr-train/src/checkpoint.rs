@@ -79,6 +79,32 @@ pub fn save_checkpoint(
     optimizer: Option<&ModuleOptimizer>,
     state: &RunState,
 ) -> Result<()> {
+    let mut meta = BTreeMap::new();
+    meta.insert(
+        SOURCE_METADATA_KEY.to_string(),
+        format!("uwnr train, step {}, epoch {}", state.step, state.epoch),
+    );
+    save_module_checkpoint(dir, model, optimizer, state, &|tmp: &Path| {
+        save_generator(
+            model,
+            config,
+            &tmp.join(GENERATOR_FILE),
+            WeightsDtype::F32,
+            &meta,
+        )?;
+        Ok(())
+    })
+}
+
+/// [`save_checkpoint`] for any network: `export(tmp_dir)` writes the network's own weights
+/// file (e.g. safetensors under its state-dict keys) into the checkpoint being assembled.
+pub fn save_module_checkpoint<M: ModuleSnapshot>(
+    dir: &Path,
+    model: &M,
+    optimizer: Option<&ModuleOptimizer>,
+    state: &RunState,
+    export: &dyn Fn(&Path) -> Result<()>,
+) -> Result<()> {
     let tmp = sibling(dir, TMP_SUFFIX);
     let old = sibling(dir, OLD_SUFFIX);
     let io = |path: &Path| {
@@ -101,18 +127,7 @@ pub fn save_checkpoint(
         opt.save(tmp.join(OPTIMIZER_FILE))
             .map_err(|e| ck_err(format!("writing the optimiser state: {e}")))?;
     }
-    let mut meta = BTreeMap::new();
-    meta.insert(
-        SOURCE_METADATA_KEY.to_string(),
-        format!("uwnr train, step {}, epoch {}", state.step, state.epoch),
-    );
-    save_generator(
-        model,
-        config,
-        &tmp.join(GENERATOR_FILE),
-        WeightsDtype::F32,
-        &meta,
-    )?;
+    export(&tmp)?;
     let json = serde_json::to_string_pretty(state).map_err(|e| ck_err(e.to_string()))?;
     let state_path = tmp.join(STATE_FILE);
     std::fs::write(&state_path, json).map_err(io(&state_path))?;
@@ -174,12 +189,21 @@ pub fn load_checkpoint(
     optimizer: ModuleOptimizer,
     device: &Device,
 ) -> Result<(Generator, ModuleOptimizer, RunState)> {
+    load_module_checkpoint(dir, config.init(device)?, optimizer)
+}
+
+/// [`load_checkpoint`] for any network: `model` (freshly built with the run's config on the
+/// training device) is overwritten with the stored tensors and parameter ids.
+pub fn load_module_checkpoint<M: ModuleSnapshot>(
+    dir: &Path,
+    mut model: M,
+    optimizer: ModuleOptimizer,
+) -> Result<(M, ModuleOptimizer, RunState)> {
     let state = read_state(dir)?;
     let ck_err = |reason: String| TrainError::Checkpoint {
         path: dir.to_path_buf(),
         reason,
     };
-    let mut model = config.init(device)?;
     let mut store = BurnpackStore::from_file(dir.join(MODEL_FILE));
     model
         .load_from(&mut store)

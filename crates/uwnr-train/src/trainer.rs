@@ -245,8 +245,19 @@ pub fn train(
         )));
         (m, o, s)
     } else {
-        device.seed(cfg.seed);
-        let m = cfg.model.init(&device)?;
+        let m = {
+            // burn's random initialisers draw from one process-wide generator: seeding it and
+            // building the network under a lock gives every run its seed's weights even when
+            // several run in one process (as tests do). burn initialises parameters lazily, at
+            // first use, so they are all touched before the lock is released.
+            let _guard = INIT_LOCK
+                .lock()
+                .unwrap_or_else(std::sync::PoisonError::into_inner);
+            device.seed(cfg.seed);
+            let m = cfg.model.init(&device)?;
+            m.visit(&mut Materialise);
+            m
+        };
         let s = RunState {
             version: STATE_VERSION,
             step: 0,
@@ -527,6 +538,18 @@ fn check_position(batch: &Batch, state: &RunState) -> Result<()> {
     }
     Ok(())
 }
+
+/// Forces the lazy initialisation of every float parameter.
+struct Materialise;
+
+impl burn::module::ModuleVisitor for Materialise {
+    fn visit_float<const D: usize>(&mut self, param: &burn::module::Param<Tensor<D>>) {
+        let _ = param.val();
+    }
+}
+
+/// Serialises seeding burn's process-wide generator and drawing the initial weights.
+static INIT_LOCK: std::sync::Mutex<()> = std::sync::Mutex::new(());
 
 /// One optimisation step: forward, loss, backward, AdamW update at `lr`.
 pub fn train_step(
