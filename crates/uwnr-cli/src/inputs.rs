@@ -1,6 +1,6 @@
 //! Turning command-line paths into work items: directory expansion, pairing, output names.
 
-use std::collections::HashMap;
+use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
@@ -53,7 +53,7 @@ fn stem(p: &Path) -> String {
 }
 
 /// Pairs clean images with references and names outputs inside `out_dir`.
-/// Names are `STEM.EXT` (or `STEM__REFSTEM.EXT` with `--pairing all`); a repeated name gets `-2`, `-3`...
+/// Names are `STEM.EXT` (or `STEM__REFSTEM.EXT` with `--pairing all`); a taken name gets `-2`, `-3`...
 /// With no references every clean image gets one job without a reference.
 pub fn plan_jobs(
     cleans: &[PathBuf],
@@ -88,7 +88,7 @@ pub fn plan_jobs(
             }
         }
     }
-    let mut seen: HashMap<String, usize> = HashMap::new();
+    let mut taken: HashSet<String> = HashSet::new();
     pairs
         .into_iter()
         .map(|(i, j)| {
@@ -96,13 +96,18 @@ pub fn plan_jobs(
                 (Pairing::All, Some(j)) => format!("{}__{}", stem(&cleans[i]), stem(&refs[j])),
                 _ => stem(&cleans[i]),
             };
-            let n = seen.entry(base.clone()).or_insert(0);
-            *n += 1;
-            let name = if *n == 1 {
-                format!("{base}.{ext}")
-            } else {
-                format!("{base}-{n}.{ext}")
-            };
+            // The first free name, so `x`, `x`, `x-2` become `x`, `x-2`, `x-2-2`.
+            let name = (1..)
+                .map(|n| {
+                    if n == 1 {
+                        format!("{base}.{ext}")
+                    } else {
+                        format!("{base}-{n}.{ext}")
+                    }
+                })
+                .find(|c| !taken.contains(c))
+                .unwrap_or_default();
+            taken.insert(name.clone());
             Job {
                 clean: i,
                 reference: j,
@@ -134,6 +139,15 @@ mod tests {
         assert_eq!(got, vec![(0, Some(0)), (1, Some(1)), (2, Some(0))]);
         assert_eq!(jobs[0].output, Path::new("out/x.png"));
         assert_eq!(jobs[1].output, Path::new("out/x-2.png"));
+        let jobs = plan_jobs(
+            &paths(&["a/x.jpg", "b/x.png", "c/x-2.jpg"]),
+            &paths(&["r.jpg"]),
+            Pairing::Cycle,
+            0,
+            Path::new("out"),
+            "png",
+        );
+        assert_eq!(jobs[2].output, Path::new("out/x-2-2.png"));
     }
 
     #[test]

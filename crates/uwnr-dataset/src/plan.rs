@@ -2,7 +2,7 @@
 //! seeds, and which shard owns which pairs. Everything here is a pure function of the sorted
 //! input lists and the seed, so every worker, every shard and every resumed run agrees on it.
 
-use std::collections::HashMap;
+use std::collections::HashSet;
 use std::fmt;
 use std::path::{Path, PathBuf};
 use std::str::FromStr;
@@ -148,12 +148,12 @@ fn walk(dir: &Path, exclude: Option<&Path>, out: &mut Vec<PathBuf>) -> Result<()
     Ok(())
 }
 
-/// Output names of the clean images: the file stem, made unique over the whole list by `-2`,
-/// `-3`... in list order, with characters other than letters, digits, `-`, `_` and `.` replaced
-/// by `_`.
+/// Output names of the clean images: the file stem, with characters other than letters,
+/// digits, `-`, `_` and `.` replaced by `_`, made unique over the whole list in list order by
+/// `-2`, `-3`... (skipping names already taken, so `x`, `x`, `x-2` become `x`, `x-2`, `x-2-2`).
 #[must_use]
 pub fn clean_names(cleans: &[PathBuf]) -> Vec<String> {
-    let mut seen: HashMap<String, usize> = HashMap::new();
+    let mut taken: HashSet<String> = HashSet::new();
     cleans
         .iter()
         .map(|p| {
@@ -170,9 +170,18 @@ pub fn clean_names(cleans: &[PathBuf]) -> Vec<String> {
                     }
                 })
                 .collect();
-            let n = seen.entry(stem.clone()).or_insert(0);
-            *n += 1;
-            if *n == 1 { stem } else { format!("{stem}-{n}") }
+            let name = (1..)
+                .map(|n| {
+                    if n == 1 {
+                        stem.clone()
+                    } else {
+                        format!("{stem}-{n}")
+                    }
+                })
+                .find(|c| !taken.contains(c))
+                .unwrap_or_default();
+            taken.insert(name.clone());
+            name
         })
         .collect()
 }
@@ -277,6 +286,12 @@ mod tests {
             PathBuf::from("c/my photo.jpg"),
         ]);
         assert_eq!(names, ["baby", "baby-2", "my_photo"]);
+        let names = clean_names(&[
+            PathBuf::from("a/x.png"),
+            PathBuf::from("b/x.png"),
+            PathBuf::from("c/x-2.png"),
+        ]);
+        assert_eq!(names, ["x", "x-2", "x-2-2"]);
     }
 
     #[test]
