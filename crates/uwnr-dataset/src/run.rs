@@ -273,6 +273,7 @@ pub fn generate(
     let names = settings.names();
     let ctx = Context {
         out,
+        method: renderer.name(),
         spec,
         cleans: &cleans,
         names: &names,
@@ -393,6 +394,8 @@ fn remove_stale_temps(
 /// Shared, read-only state of the workers.
 struct Context<'a> {
     out: &'a Path,
+    /// The method's name, recorded in every pair.
+    method: &'static str,
     spec: &'a Spec,
     cleans: &'a [PathBuf],
     names: &'a [String],
@@ -478,7 +481,7 @@ impl Context<'_> {
                     index,
                     clean_source: source.to_string_lossy().into_owned(),
                     reference_source,
-                    method: self.spec_method(worker),
+                    method: self.method.into(),
                     params,
                     seed,
                     width: clean.width(),
@@ -505,13 +508,6 @@ impl Context<'_> {
             }
         }
         true
-    }
-
-    fn spec_method(&self, worker: &Worker<'_>) -> String {
-        match worker {
-            Worker::Network { .. } => "uwnr".into(),
-            Worker::Baseline(m) => m.name().into(),
-        }
     }
 
     /// The references of clean image `i`, in draw order: the first K readable ones of its
