@@ -5,8 +5,15 @@
 # EUVP training does not transfer), the 1 - SSIM structure term standing in for VGG19, and the
 # paper's light-field loss. Baselines on uieb-val: mean shift 20.96 dB, Reinhard 28.29 dB.
 #
-# The config is tools/train_default_model.json: 256x256 crops, batch 4, 18 epochs (lr constant
-# for 9, then linear to 0), about 12k steps, sized for 4-6 hours of a 2-core CPU with libtorch.
+# The network is fed the `absolute` light-field map (the released multi-scale log luminance
+# normalised by a fixed range instead of min-max, so the reference's brightness and contrast
+# survive; see crates/uwnr-core/src/lightfield.rs). A first run with the paper's map (256 crops)
+# reached 18.63 dB on uieb-val after 4 epochs, below the mean shift: with the colour-cast
+# augmentation a global gain or gamma of the target is invisible in a min-max map.
+#
+# The config is tools/train_default_model.json: 128x128 crops, batch 4, 16 epochs (lr constant
+# for 8, then linear to 0), 684 steps per epoch, 10,944 steps, sized for about 1.5-2 hours of a
+# 2-core CPU with libtorch (0.42 s/step measured on a quiet machine).
 #
 # Run from the repository root. The run folder lives outside the repository so it survives;
 # run the script again to resume (it passes --resume when the run folder has a checkpoint).
@@ -14,7 +21,7 @@
 #   LIBTORCH_USE_PYTORCH=1 cargo build --release -p uwnr-cli --features tch
 set -euo pipefail
 DATA=${DATA:-../shared/data}
-RUN=${RUN:-../uwnr-runs/default-v1}
+RUN=${RUN:-../uwnr-runs/default-v2}
 DEVICE=${DEVICE:-tch}
 BIN=${BIN:-target/release/uwnr}
 export LIBTORCH_USE_PYTORCH=1

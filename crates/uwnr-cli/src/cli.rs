@@ -329,6 +329,10 @@ pub struct LightfieldArgs {
     /// Write the map at this size WxH instead of the 256x256 the network's style is computed at.
     #[arg(long, value_name = "WxH", value_parser = parse_size)]
     pub size: Option<(usize, usize)>,
+    /// Normalisation: `paper` (min-max over the map, as the released code) or `absolute` (a fixed
+    /// range, so the reference's brightness is kept; what the bundled model is fed).
+    #[arg(long, value_name = "MAP", default_value = "paper")]
+    pub map: uwnr_core::lightfield::LightFieldMap,
 }
 
 #[derive(Debug, Args)]
@@ -436,6 +440,10 @@ pub struct TrainArgs {
     /// Override: light-field loss variant.
     #[arg(long, value_enum)]
     pub light_field_loss: Option<LightFieldLossArg>,
+    /// Override: the light-field map the network is fed, `paper` (min-max, the released code) or
+    /// `absolute` (keeps the reference's brightness); recorded in the weights' config.
+    #[arg(long, value_name = "MAP")]
+    pub light_field_map: Option<uwnr_core::lightfield::LightFieldMap>,
     /// Override: enable the colour-cast augmentation with its default ranges.
     #[arg(long)]
     pub color_cast: bool,

@@ -24,10 +24,17 @@
 //! ([`crate::resize::pil_resize_bilinear_u8`]); in training the map is computed on the 256x256
 //! crop itself. Because the map is always computed at 0.3 x 256 pixels, it does not depend on the
 //! resolution of the reference.
+//!
+//! The min-max normalisation discards the reference's overall brightness and contrast: a global
+//! gain is an offset in log space and a gamma a scale, and both cancel. [`LightFieldMap::Absolute`]
+//! is the same map normalised by the fixed range every 8-bit image falls in instead, so it keeps
+//! them; a network trained with it needs it at render time too (the authors' checkpoint needs
+//! [`LightFieldMap::Paper`]), which is why the generator's config records the map.
 
 use std::sync::OnceLock;
 
 use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
 
 use crate::error::{CoreError, Result};
 use crate::gaussian::cv_gaussian_blur_u8;
@@ -50,6 +57,50 @@ pub const LF_NORM_EPS: f64 = 0.0001;
 
 /// Channels of the reference the light field is computed from (RGB).
 const LF_CHANNELS: usize = 3;
+
+/// How the multi-scale log luminance is normalised to [0, 1].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum LightFieldMap {
+    /// The released code: min-max over the image's own values (all channels together). Keeps the
+    /// spatial and between-channel pattern, drops overall brightness and contrast.
+    #[default]
+    Paper,
+    /// The fixed range of the luminance of any 8-bit image, `[1/3, (1 + 3 log10 255) / 3]`, so a
+    /// darker or lower-contrast reference gives a darker or flatter map. Otherwise identical.
+    Absolute,
+}
+
+impl LightFieldMap {
+    /// The name used in configs and on the command line.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Paper => "paper",
+            Self::Absolute => "absolute",
+        }
+    }
+}
+
+impl std::str::FromStr for LightFieldMap {
+    type Err = String;
+
+    fn from_str(s: &str) -> std::result::Result<Self, Self::Err> {
+        match s {
+            "paper" => Ok(Self::Paper),
+            "absolute" => Ok(Self::Absolute),
+            other => Err(format!(
+                "unknown light-field map '{other}' (expected paper or absolute)"
+            )),
+        }
+    }
+}
+
+impl std::fmt::Display for LightFieldMap {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
 
 /// `np.clip(np.log10(v), 0, 255)` for every uint8 value `v`, as NumPy computes it on a uint8
 /// array: `log10f` rounded to float16 (`log10(0) = -inf` clips to 0).
@@ -75,6 +126,11 @@ pub fn log10_u8_values() -> Vec<f64> {
 
 /// The released procedure on an 8-bit RGB image at its own size: same size out.
 pub fn light_field_raw_u8(img: &U8Image) -> Result<U8Image> {
+    light_field_raw_u8_with(img, LightFieldMap::Paper)
+}
+
+/// [`light_field_raw_u8`] with the normalisation `map`.
+pub fn light_field_raw_u8_with(img: &U8Image, map: LightFieldMap) -> Result<U8Image> {
     if img.channels != LF_CHANNELS {
         return Err(CoreError::ShapeMismatch {
             expected: (LF_CHANNELS, img.height, img.width),
@@ -98,11 +154,15 @@ pub fn light_field_raw_u8(img: &U8Image) -> Result<U8Image> {
     for l in &mut luminance {
         *l /= count;
     }
-    let (min, max) = luminance
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| {
-            (lo.min(v), hi.max(v))
-        });
+    let (min, max) = match map {
+        LightFieldMap::Paper => luminance
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| {
+                (lo.min(v), hi.max(v))
+            }),
+        // Every blur of an all-0 image is 0 (log clipped to 0); of an all-255 image, 255.
+        LightFieldMap::Absolute => (1.0 / count, (1.0 + count * table[255]) / count),
+    };
     let denom = max - min + LF_NORM_EPS;
     // `np.uint8(L * 255)` truncates; L is in [0, 1).
     let normalised: Vec<u8> = luminance
@@ -116,27 +176,52 @@ pub fn light_field_raw_u8(img: &U8Image) -> Result<U8Image> {
 /// The render-time map on an 8-bit RGB reference: PIL bilinear resize to 256x256, then the
 /// released procedure. Output 256x256x3.
 pub fn light_field_u8(reference: &U8Image) -> Result<U8Image> {
+    light_field_u8_with(reference, LightFieldMap::Paper)
+}
+
+/// [`light_field_u8`] with the normalisation `map`.
+pub fn light_field_u8_with(reference: &U8Image, map: LightFieldMap) -> Result<U8Image> {
     let resized = pil_resize_bilinear_u8(reference, LF_REFERENCE_SIZE, LF_REFERENCE_SIZE)?;
-    light_field_raw_u8(&resized)
+    light_field_raw_u8_with(&resized, map)
 }
 
 /// The render-time light-field map of a reference image: quantised to u8 (round half up, as the
 /// released code sees uint8), PIL-resized to 256x256, then the released procedure. Returns a
 /// 256x256x3 image with values `u8 / 255`.
 pub fn light_field(reference: &Image) -> Result<Image> {
-    light_field_u8(&U8Image::from_image(reference))?.to_image()
+    light_field_with(reference, LightFieldMap::Paper)
+}
+
+/// [`light_field`] with the normalisation `map`.
+pub fn light_field_with(reference: &Image, map: LightFieldMap) -> Result<Image> {
+    light_field_u8_with(&U8Image::from_image(reference), map)?.to_image()
 }
 
 /// The released procedure on an image at its own size (training crops): same size out, values
 /// `u8 / 255`.
 pub fn light_field_raw(image: &Image) -> Result<Image> {
-    light_field_raw_u8(&U8Image::from_image(image))?.to_image()
+    light_field_raw_with(image, LightFieldMap::Paper)
+}
+
+/// [`light_field_raw`] with the normalisation `map`.
+pub fn light_field_raw_with(image: &Image, map: LightFieldMap) -> Result<Image> {
+    light_field_raw_u8_with(&U8Image::from_image(image), map)?.to_image()
 }
 
 /// [`light_field`] resized with [`resize_bilinear`] to `width x height`: what rendering feeds the
 /// network next to a clean image of that size.
 pub fn light_field_for(reference: &Image, width: usize, height: usize) -> Result<Image> {
-    resize_bilinear(&light_field(reference)?, width, height)
+    light_field_for_with(reference, width, height, LightFieldMap::Paper)
+}
+
+/// [`light_field_for`] with the normalisation `map`.
+pub fn light_field_for_with(
+    reference: &Image,
+    width: usize,
+    height: usize,
+    map: LightFieldMap,
+) -> Result<Image> {
+    resize_bilinear(&light_field_with(reference, map)?, width, height)
 }
 
 #[cfg(test)]

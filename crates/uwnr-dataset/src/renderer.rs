@@ -75,6 +75,16 @@ impl Renderer {
         }
     }
 
+    /// The light-field map references are turned into (the network's config says which; the
+    /// baselines do not read it, so the released map is saved for them).
+    #[must_use]
+    pub fn light_field_map(&self) -> uwnr_core::lightfield::LightFieldMap {
+        match self {
+            Self::Network(n) => n.config.light_field,
+            Self::Baseline(_) => uwnr_core::lightfield::LightFieldMap::Paper,
+        }
+    }
+
     /// Whether renders must have a reference.
     #[must_use]
     pub fn needs_reference(&self) -> bool {

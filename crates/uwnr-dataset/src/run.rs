@@ -26,7 +26,7 @@ use std::time::Instant;
 
 use uwnr_core::Image;
 use uwnr_core::io::{DecodeLimits, load_rgb, save_gray16, save_rgb};
-use uwnr_core::lightfield::light_field;
+use uwnr_core::lightfield::{LightFieldMap, light_field_with};
 use uwnr_core::resize::{U8Image, resize_bilinear};
 use uwnr_depth::{DepthSource, PreparedDepth};
 
@@ -274,6 +274,7 @@ pub fn generate(
     let ctx = Context {
         out,
         method: renderer.name(),
+        light_field_map: renderer.light_field_map(),
         spec,
         cleans: &cleans,
         names: &names,
@@ -401,6 +402,8 @@ struct Context<'a> {
     names: &'a [String],
     refs: &'a [PathBuf],
     ref_cache: RefCache,
+    /// How references become light fields (the network's config decides).
+    light_field_map: LightFieldMap,
     depth: &'a PreparedDepth,
     limits: &'a DecodeLimits,
     stop: &'a AtomicBool,
@@ -523,7 +526,9 @@ impl Context<'_> {
                 let path = &self.refs[r];
                 let lf = load_rgb(path, self.limits)
                     .map_err(|e| e.to_string())
-                    .and_then(|img| light_field(&img).map_err(|e| e.to_string()));
+                    .and_then(|img| {
+                        light_field_with(&img, self.light_field_map).map_err(|e| e.to_string())
+                    });
                 if let Err(reason) = &lf {
                     first_failure = Some(reason.clone());
                 }

@@ -7,6 +7,7 @@
 
 use burn::tensor::Device;
 use serde::{Deserialize, Serialize};
+pub use uwnr_core::lightfield::LightFieldMap;
 
 use crate::error::{ModelError, Result};
 use crate::generator::Generator;
@@ -39,6 +40,10 @@ pub struct GeneratorConfig {
     pub out_channels: usize,
     /// Width of the first encoder level; level `k` (0-based) has `base_width << k` channels.
     pub base_width: usize,
+    /// The light-field map the network was trained with and must be fed (the released network:
+    /// `paper`; files without the field are read as `paper`).
+    #[serde(default)]
+    pub light_field: LightFieldMap,
 }
 
 impl Default for GeneratorConfig {
@@ -47,6 +52,7 @@ impl Default for GeneratorConfig {
             in_channels: PAPER_IN_CHANNELS,
             out_channels: PAPER_OUT_CHANNELS,
             base_width: PAPER_BASE_WIDTH,
+            light_field: LightFieldMap::Paper,
         }
     }
 }
@@ -231,6 +237,27 @@ mod tests {
         assert!(
             serde_json::from_str::<GeneratorConfig>(
                 r#"{"in_channels":7,"out_channels":3,"base_width":8,"depth":4}"#
+            )
+            .is_err()
+        );
+    }
+
+    #[test]
+    fn light_field_map_is_recorded_and_defaults_to_the_papers() {
+        // Files written before the field existed (and the authors' checkpoint) mean `paper`.
+        let old: GeneratorConfig =
+            serde_json::from_str(r#"{"in_channels":7,"out_channels":3,"base_width":64}"#).unwrap();
+        assert_eq!(old.light_field, LightFieldMap::Paper);
+        let cfg = GeneratorConfig {
+            light_field: LightFieldMap::Absolute,
+            ..GeneratorConfig::with_base_width(8)
+        };
+        let json = serde_json::to_string(&cfg).unwrap();
+        assert!(json.contains(r#""light_field":"absolute""#), "{json}");
+        assert_eq!(serde_json::from_str::<GeneratorConfig>(&json).unwrap(), cfg);
+        assert!(
+            serde_json::from_str::<GeneratorConfig>(
+                r#"{"in_channels":7,"out_channels":3,"base_width":64,"light_field":"bright"}"#
             )
             .is_err()
         );

@@ -11,7 +11,7 @@ pub mod infer;
 pub mod weights;
 
 pub use burn::tensor::Device;
-pub use config::{GeneratorConfig, gmacs, param_count};
+pub use config::{GeneratorConfig, LightFieldMap, gmacs, param_count};
 pub use error::{ModelError, Result};
 pub use generator::{ChannelMeans, Generator};
 pub use infer::{RenderOptions, render};

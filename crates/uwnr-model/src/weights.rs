@@ -26,7 +26,7 @@ use burn::tensor::{Device, Tensor, TensorData};
 use safetensors::{Dtype, SafeTensors, tensor::TensorView};
 use serde::{Deserialize, Serialize};
 
-use crate::config::{ATTENTION_REDUCTION, GeneratorConfig, LEVELS};
+use crate::config::{ATTENTION_REDUCTION, GeneratorConfig, LEVELS, LightFieldMap};
 use crate::error::{ModelError, Result};
 use crate::generator::{
     BasicBlock, ChannelAttention, Down, Generator, SpatialAttention, Up, conv_from_tensors,
@@ -596,6 +596,7 @@ fn infer_config(tensors: &TensorMap) -> Result<GeneratorConfig> {
         in_channels,
         out_channels,
         base_width,
+        light_field: LightFieldMap::Paper,
     };
     config.validate()?;
     Ok(config)

@@ -92,7 +92,7 @@ fn prepare(c: &mut Criterion) {
                 color_cast: Some(ColorCast::default()),
                 ..AugmentConfig::default()
             },
-            light_field: uwnr_core::lightfield::light_field_raw,
+            light_field: uwnr_core::lightfield::LightFieldMap::Paper,
         };
         group.throughput(Throughput::Elements(b as u64));
         group.bench_function(format!("{b}x{s}"), |bencher| {

@@ -13,7 +13,7 @@ use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
 use std::thread::JoinHandle;
 
 use rayon::prelude::*;
-use uwnr_core::Image;
+use uwnr_core::lightfield::LightFieldMap;
 
 use crate::augment::{
     INPUT_CHANNELS, Sample, TARGET_CHANNELS, epoch_order, make_sample, plan_sample,
@@ -52,8 +52,8 @@ pub struct BatchSpec {
     pub crop: usize,
     /// Augmentation.
     pub augment: AugmentConfig,
-    /// The light-field map of an underwater crop, at the crop's size.
-    pub light_field: fn(&Image) -> uwnr_core::Result<Image>,
+    /// How the light field of an underwater crop is normalised (computed at the crop's size).
+    pub light_field: LightFieldMap,
 }
 
 impl BatchSpec {
@@ -79,7 +79,7 @@ impl BatchSpec {
                 order.len()
             )));
         }
-        let lf = self.light_field;
+        let map = self.light_field;
         let samples: Vec<Result<Sample>> = positions
             .into_par_iter()
             .map(|pos| {
@@ -93,7 +93,9 @@ impl BatchSpec {
                     self.crop,
                     &self.augment,
                 );
-                make_sample(pair, &plan, self.crop, |im| Ok(lf(im)?))
+                make_sample(pair, &plan, self.crop, |im| {
+                    Ok(uwnr_core::lightfield::light_field_raw_with(im, map)?)
+                })
             })
             .collect();
         let n = self.crop * self.crop;

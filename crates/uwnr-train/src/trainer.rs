@@ -207,7 +207,14 @@ pub fn train(
     let total_steps = cfg.epochs * steps_per_epoch;
     let val_lf: Vec<Image> = val
         .iter()
-        .map(|v| lightfield::light_field_for(&v.underwater, v.clean.width(), v.clean.height()))
+        .map(|v| {
+            lightfield::light_field_for_with(
+                &v.underwater,
+                v.clean.width(),
+                v.clean.height(),
+                cfg.model.light_field,
+            )
+        })
         .collect::<uwnr_core::Result<_>>()?;
 
     let device = opts.device.clone().autodiff();
@@ -296,7 +303,7 @@ pub fn train(
         batch_size: cfg.batch_size,
         crop: cfg.crop,
         augment: cfg.augment,
-        light_field: lightfield::light_field_raw,
+        light_field: cfg.model.light_field,
     };
     let mut loader = Loader::start(
         spec,

@@ -47,6 +47,7 @@ pub fn run(a: &InfoArgs) -> Result<ExitCode> {
         uwnr_model::param_count(&config, false),
         uwnr_model::param_count(&config, true)
     );
+    println!("light field: {} map", config.light_field);
     let (pw, ph) = (w.div_ceil(16) * 16, h.div_ceil(16) * 16);
     println!(
         "compute:     {:.2} GMac at {w}x{h} (padded to {pw}x{ph})",

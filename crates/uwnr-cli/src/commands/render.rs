@@ -9,7 +9,7 @@ use anyhow::{Context, Result, anyhow, bail};
 use uwnr_baselines::{Method, RenderInput};
 use uwnr_core::Image;
 use uwnr_core::io::{DecodeLimits, is_image_path, load_rgb, save_rgb};
-use uwnr_core::lightfield::light_field;
+use uwnr_core::lightfield::{LightFieldMap, light_field_with};
 use uwnr_core::resize::resize_bilinear;
 use uwnr_model::{Device, Generator, RenderOptions};
 
@@ -23,6 +23,8 @@ enum Renderer {
         generator: Box<Generator>,
         opts: RenderOptions,
         device: Device,
+        /// The light-field map the weights were trained with (from their config).
+        map: LightFieldMap,
     },
     Baseline {
         method: Method,
@@ -86,10 +88,11 @@ pub fn run(a: &RenderArgs) -> Result<ExitCode> {
         },
         None => {
             let device = super::device(a.model.device)?;
-            let (generator, _config, _info, _source) =
+            let (generator, config, _info, _source) =
                 super::load_model(a.model.weights.as_deref(), &device)?;
             Renderer::Network {
                 generator: Box::new(generator),
+                map: config.light_field,
                 opts: RenderOptions {
                     max_tile_pixels: a.model.max_whole_pixels,
                     tile: a.model.tile,
@@ -155,8 +158,8 @@ fn reference_input(path: &Path, renderer: &Renderer, limits: &DecodeLimits) -> R
     let reference =
         load_rgb(path, limits).with_context(|| format!("reading reference {}", path.display()))?;
     Ok(match renderer {
-        Renderer::Network { .. } => RefInput::Field(
-            light_field(&reference)
+        Renderer::Network { map, .. } => RefInput::Field(
+            light_field_with(&reference, *map)
                 .with_context(|| format!("light field of {}", path.display()))?,
         ),
         Renderer::Baseline { .. } => RefInput::Image(reference),
@@ -194,6 +197,7 @@ fn render_one(
                 generator,
                 opts,
                 device,
+                ..
             },
             Some(RefInput::Field(field)),
         ) => {

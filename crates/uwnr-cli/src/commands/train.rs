@@ -122,7 +122,13 @@ fn config(a: &TrainArgs) -> Result<TrainConfig> {
         cfg.lr = v;
     }
     if let Some(v) = a.width {
-        cfg.model = GeneratorConfig::with_base_width(v);
+        cfg.model = GeneratorConfig {
+            base_width: v,
+            ..cfg.model
+        };
+    }
+    if let Some(v) = a.light_field_map {
+        cfg.model.light_field = v;
     }
     if let Some(v) = a.light_field_loss {
         cfg.light_field_loss = match v {

@@ -13,8 +13,9 @@ use crate::common;
 use common::{compare, fixtures, read_json, read_rgb8, workspace_root};
 use uwnr_core::io::{DecodeLimits, load_rgb};
 use uwnr_core::lightfield::{
-    LF_REFERENCE_SIZE, light_field, light_field_for, light_field_raw, light_field_raw_u8,
-    light_field_u8, log10_u8_values,
+    LF_REFERENCE_SIZE, LightFieldMap, light_field, light_field_for, light_field_raw,
+    light_field_raw_u8, light_field_raw_u8_with, light_field_u8, light_field_u8_with,
+    log10_u8_values,
 };
 use uwnr_core::resize::U8Image;
 
@@ -126,4 +127,75 @@ fn map_does_not_depend_on_reference_resolution() {
     let b = light_field_u8(&U8Image::from_image(&half)).unwrap();
     let (mad, _) = compare(&a, &b);
     assert!(mad < 2.0, "mean abs diff {mad}");
+}
+
+fn uniform_u8(w: usize, h: usize, rgb: [u8; 3]) -> U8Image {
+    let data = (0..w * h).flat_map(|_| rgb).collect();
+    U8Image::new(w, h, 3, data).unwrap()
+}
+
+fn mean_u8(img: &U8Image) -> f64 {
+    img.data.iter().map(|&v| f64::from(v)).sum::<f64>() / img.data.len() as f64
+}
+
+#[test]
+fn absolute_map_of_uniform_images_follows_log10() {
+    // A flat image has flat blurs, so every map value is
+    // floor(((1 + 3 log10 v) / 3 - 1/3) / (log10 255 + 1e-4 / 1) * 255) with float16 logs.
+    let table = log10_u8_values();
+    for v in [0_u8, 1, 9, 40, 128, 200, 255] {
+        let img = uniform_u8(40, 30, [v, v, v]);
+        let map = light_field_raw_u8_with(&img, LightFieldMap::Absolute).unwrap();
+        let lum = (1.0 + 3.0 * table[usize::from(v)]) / 3.0;
+        let (lo, hi) = (1.0 / 3.0, (1.0 + 3.0 * table[255]) / 3.0);
+        let expected = ((lum - lo) / (hi - lo + 1e-4) * 255.0) as u8;
+        assert!(
+            map.data.iter().all(|&m| m == expected),
+            "v = {v}: expected {expected}, got {:?}",
+            &map.data[..3]
+        );
+    }
+    // The paper's min-max map of a flat image is all zeros whatever its brightness.
+    let paper = light_field_raw_u8(&uniform_u8(40, 30, [200, 200, 200])).unwrap();
+    assert!(paper.data.iter().all(|&m| m == 0));
+}
+
+#[test]
+fn absolute_map_keeps_brightness_the_paper_map_drops() {
+    let path = workspace_root().join("assets/samples/ref-green.png");
+    let reference = U8Image::from_image(&load_rgb(&path, &DecodeLimits::default()).unwrap());
+    // The same scene with a global gain of 0.5: an offset in log space.
+    let darker = U8Image::new(
+        reference.width,
+        reference.height,
+        3,
+        reference.data.iter().map(|&v| v / 2).collect(),
+    )
+    .unwrap();
+    let paper = (
+        light_field_u8(&reference).unwrap(),
+        light_field_u8(&darker).unwrap(),
+    );
+    let (paper_mad, _) = compare(&paper.0, &paper.1);
+    let absolute = (
+        light_field_u8_with(&reference, LightFieldMap::Absolute).unwrap(),
+        light_field_u8_with(&darker, LightFieldMap::Absolute).unwrap(),
+    );
+    // log10(2) / log10(255) * 255 = 32 code values darker.
+    let drop = mean_u8(&absolute.0) - mean_u8(&absolute.1);
+    assert!((drop - 32.0).abs() < 4.0, "absolute map dropped by {drop}");
+    assert!(paper_mad < 6.0, "paper map moved by {paper_mad}");
+    assert_eq!(
+        light_field_u8_with(&reference, LightFieldMap::Paper).unwrap(),
+        paper.0
+    );
+}
+
+#[test]
+fn map_names_parse() {
+    for m in [LightFieldMap::Paper, LightFieldMap::Absolute] {
+        assert_eq!(m.name().parse::<LightFieldMap>().unwrap(), m);
+        assert_eq!(serde_json::to_string(&m).unwrap(), format!("\"{}\"", m.name()));
+    }
+    assert!("brightness".parse::<LightFieldMap>().is_err());
 }
