@@ -32,6 +32,12 @@ pub enum Command {
     /// Generate a paired dataset (K renders per clean image), resumable and shardable;
     /// `dataset verify` checks one, `dataset merge` joins shards.
     Dataset(DatasetArgs),
+    /// Experiments: `experiment downstream` trains an enhancer on each method's synthetic data
+    /// and scores it on real test pairs (the paper's Table 1).
+    Experiment(crate::commands::experiment::ExperimentArgs),
+    /// The Shallow-UWnet enhancer of the downstream experiment: `enhance train` on paired
+    /// folders, `enhance apply` to images, `enhance eval` on a paired test folder.
+    Enhance(EnhanceArgs),
 }
 
 /// How clean images are paired with references when there are several.
@@ -493,6 +499,109 @@ pub struct EvalArgs {
     /// Write per-image scores as CSV.
     #[arg(long, value_name = "FILE")]
     pub csv: Option<PathBuf>,
+}
+
+#[derive(Debug, Args)]
+pub struct EnhanceArgs {
+    #[command(subcommand)]
+    pub action: EnhanceAction,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum EnhanceAction {
+    /// Train Shallow-UWnet on paired folders (underwater/ -> clean/), with exact resume.
+    Train(EnhanceTrainArgs),
+    /// Enhance underwater images (files or folders) with trained weights.
+    Apply(EnhanceApplyArgs),
+    /// Score weights, or no enhancement, on a paired test folder (PSNR, SSIM, UIQM, UCIQE).
+    Eval(EnhanceEvalArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct EnhanceTrainArgs {
+    /// Training folders, each with `underwater/` + `clean/` (or `raw-890/` + `reference-890/`)
+    /// matched by file name.
+    #[arg(long, required = true, num_args = 1.., value_name = "DIR")]
+    pub data: Vec<PathBuf>,
+    /// Validation folder (same layout), scored at native resolution (PSNR/SSIM).
+    #[arg(long, value_name = "DIR")]
+    pub val: Option<PathBuf>,
+    /// Run folder: config, logs, curves, checkpoints (enhancer.safetensors in each).
+    #[arg(long, value_name = "RUN_DIR")]
+    pub run: PathBuf,
+    /// Training config (JSON); fields not given keep their defaults.
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
+    /// Continue the run in --run from its last checkpoint (its config.json is used).
+    #[arg(long)]
+    pub resume: bool,
+    /// VGG19 weights (safetensors, torchvision keys `features.N.weight`) for the perceptual loss;
+    /// without them a 1 - SSIM structure term stands in.
+    #[arg(long, value_name = "FILE")]
+    pub vgg19: Option<PathBuf>,
+    /// Override: epochs.
+    #[arg(long)]
+    pub epochs: Option<usize>,
+    /// Override: batch size.
+    #[arg(long)]
+    pub batch_size: Option<usize>,
+    /// Override: crop side.
+    #[arg(long)]
+    pub crop: Option<usize>,
+    /// Override: seed.
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Override: learning rate.
+    #[arg(long)]
+    pub lr: Option<f64>,
+    /// Stop (with a checkpoint) after this many steps in this session.
+    #[arg(long, value_name = "N")]
+    pub max_steps: Option<usize>,
+    /// Compute device.
+    #[arg(long, value_enum, default_value_t = DeviceArg::Flex)]
+    pub device: DeviceArg,
+}
+
+#[derive(Debug, Args)]
+pub struct EnhanceApplyArgs {
+    /// Underwater images (files or directories of images).
+    #[arg(required = true, value_name = "IMAGES")]
+    pub images: Vec<PathBuf>,
+    /// Enhancer weights (`enhancer.safetensors` of a run, or a Shallow-UWnet state dict).
+    #[arg(long, value_name = "FILE")]
+    pub weights: PathBuf,
+    /// Output image file (one input image) or output directory.
+    #[arg(long, short = 'o', value_name = "PATH")]
+    pub output: PathBuf,
+    /// Output format in directory mode.
+    #[arg(long, value_enum, default_value_t = OutFormat::Png)]
+    pub format: OutFormat,
+    /// Compute device.
+    #[arg(long, value_enum, default_value_t = DeviceArg::Flex)]
+    pub device: DeviceArg,
+}
+
+#[derive(Debug, Args)]
+pub struct EnhanceEvalArgs {
+    /// Enhancer weights; without them the underwater input itself is scored (no enhancement).
+    #[arg(long, value_name = "FILE")]
+    pub weights: Option<PathBuf>,
+    /// Paired test folder (`underwater/` + `clean/`, or `raw-890/` + `reference-890/`).
+    #[arg(long, value_name = "DIR")]
+    pub data: PathBuf,
+    /// Write each output there as STEM.png.
+    #[arg(long, value_name = "DIR")]
+    pub save: Option<PathBuf>,
+    /// Downscale pairs whose longer side exceeds N pixels (aspect kept) before enhancing and
+    /// scoring.
+    #[arg(long, value_name = "N")]
+    pub max_side: Option<usize>,
+    /// Write the scores (per image and means) as JSON.
+    #[arg(long, value_name = "FILE")]
+    pub json: Option<PathBuf>,
+    /// Compute device.
+    #[arg(long, value_enum, default_value_t = DeviceArg::Flex)]
+    pub device: DeviceArg,
 }
 
 /// Parses `WxH` (e.g. `640x480`).

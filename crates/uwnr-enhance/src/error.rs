@@ -1,4 +1,6 @@
-//! Errors of the enhancement network.
+//! Errors of the enhancement network, its training and its evaluation.
+
+use std::path::PathBuf;
 
 /// What can go wrong building, loading or running Shallow-UWnet.
 #[derive(Debug, thiserror::Error)]
@@ -26,6 +28,36 @@ pub enum EnhanceError {
     /// An image operation failed.
     #[error(transparent)]
     Core(#[from] uwnr_core::CoreError),
+    /// A training config field has an unusable value.
+    #[error("invalid enhancer training config: {field}: {reason}")]
+    InvalidTrainConfig { field: &'static str, reason: String },
+    /// A training config file could not be read as one.
+    #[error("{path:?}: not a valid enhancer training config: {reason}")]
+    ConfigFile { path: PathBuf, reason: String },
+    /// `--resume` was given a config that differs from the run's own.
+    #[error(
+        "{path:?}: the run was started with another config ({} differ{}); a resumed run keeps its config.json",
+        fields.join(", "),
+        if fields.len() == 1 { "s" } else { "" }
+    )]
+    ConfigChanged { path: PathBuf, fields: Vec<String> },
+    /// The loss became NaN or infinite.
+    #[error("loss is not finite at step {step}: mse {mse}, perceptual {perceptual}, total {total}")]
+    NonFiniteLoss {
+        step: usize,
+        mse: f64,
+        perceptual: f64,
+        total: f64,
+    },
+    /// A pair of images cannot be scored or trained on.
+    #[error("{path:?}: {reason}")]
+    BadPair { path: PathBuf, reason: String },
+    /// Data, checkpoints, logs and VGG19 weights (the machinery shared with UWNR training).
+    #[error(transparent)]
+    Train(#[from] uwnr_train::TrainError),
+    /// A metric could not be computed.
+    #[error(transparent)]
+    Metrics(#[from] uwnr_metrics::MetricsError),
 }
 
 /// Result with [`EnhanceError`].

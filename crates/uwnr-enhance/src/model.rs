@@ -27,7 +27,7 @@ pub const KERNEL: usize = 3;
 
 /// Architecture of the network; the default is the paper's.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct ShallowUwnetConfig {
     /// Feature channels (`w`, 64 in the paper).
     pub width: usize,

@@ -39,5 +39,5 @@ pub use config::{
 };
 pub use error::{Result, TrainError};
 pub use losses::{Criterion, LossValues};
-pub use trainer::{Event, TrainOptions, TrainSummary, ValResult, train, train_step};
+pub use trainer::{Event, TrainOptions, TrainSummary, ValResult, init_seeded, train, train_step};
 pub use vgg::Vgg19Features;

@@ -2,7 +2,8 @@
 //! (`curves.png`) and the validation contact sheets (clean | render | real underwater, one
 //! row per pair).
 //!
-//! Text uses a built-in 3x5 pixel font (digits, a few capitals and `. - +`), scaled up.
+//! Text uses a built-in 3x5 pixel font (digits, capitals A-Z and `. , - + / ( ) : _ %`; lower
+//! case is drawn as capitals), scaled up.
 
 use std::path::Path;
 
@@ -24,72 +25,111 @@ const FONT_SCALE: u32 = 2;
 const WHITE: Rgb<u8> = Rgb([255, 255, 255]);
 const BLACK: Rgb<u8> = Rgb([0, 0, 0]);
 const GRID: Rgb<u8> = Rgb([225, 225, 225]);
-/// Colours of the loss terms: reconstruction, perceptual, dark channel, light field, total.
-const TERM_COLOURS: [Rgb<u8>; 5] = [
-    Rgb([230, 159, 0]),
-    Rgb([86, 180, 233]),
-    Rgb([0, 158, 115]),
-    Rgb([204, 121, 167]),
-    Rgb([0, 0, 0]),
+/// Colours given to loss series in order ([`series_colour`]): the Okabe-Ito palette, which
+/// stays distinguishable for colour-blind readers.
+pub const SERIES_COLOURS: [[u8; 3]; 6] = [
+    [230, 159, 0],
+    [86, 180, 233],
+    [0, 158, 115],
+    [204, 121, 167],
+    [0, 114, 178],
+    [240, 228, 66],
 ];
-/// Legend names of the loss terms (as in `metrics.csv`).
+/// Colour of a run's total loss.
+pub const TOTAL_COLOUR: [u8; 3] = [0, 0, 0];
+/// Legend names of UWNR's loss terms (as in `metrics.csv`).
 const TERM_NAMES: [&str; 5] = ["L1", "PERCEPTUAL", "DARK CHANNEL", "LIGHT FIELD", "TOTAL"];
 /// Colour of the validation PSNR curve.
 const VAL_COLOUR: Rgb<u8> = Rgb([213, 94, 0]);
 /// Colour of the reference lines on the validation panel.
 const REF_COLOUR: Rgb<u8> = Rgb([150, 150, 150]);
 
-/// One logged row of training losses: step and the five values.
+/// One logged row of UWNR's training losses: step and the five values.
 pub type LossPoint = (usize, [f64; 5]);
 /// One validation: step, PSNR.
 pub type ValPoint = (usize, f64);
 
-/// Draws `curves.png`: the top panel shows the loss terms and the total (log scale) against
-/// the step, the bottom panel the validation PSNR with horizontal reference lines (e.g.
-/// baselines) at `refs`.
+/// A named curve of the loss panel.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LossSeries {
+    /// Legend text (drawn in capitals; letters, digits, space and `. - + / ( ) : _ %`).
+    pub name: String,
+    /// Line colour, RGB.
+    pub colour: [u8; 3],
+    /// `(step, value)`; values that are not positive leave a gap on the log axis.
+    pub points: Vec<(usize, f64)>,
+}
+
+/// The colour of the `index`-th series: [`SERIES_COLOURS`] in turn.
+#[must_use]
+pub fn series_colour(index: usize) -> [u8; 3] {
+    SERIES_COLOURS[index % SERIES_COLOURS.len()]
+}
+
+/// Draws UWNR's `curves.png` ([`draw_loss_curves`] with its five loss terms: reconstruction,
+/// perceptual, dark channel, light field, total).
 pub fn draw_curves(
     path: &Path,
     losses: &[LossPoint],
     val: &[ValPoint],
     refs: &[f64],
 ) -> Result<()> {
-    let mut img = RgbImage::from_pixel(PLOT_W, 2 * PANEL_H, WHITE);
-    let max_step = losses
+    let series: Vec<LossSeries> = TERM_NAMES
         .iter()
-        .map(|p| p.0)
+        .enumerate()
+        .map(|(term, name)| LossSeries {
+            name: (*name).to_string(),
+            colour: if term + 1 == TERM_NAMES.len() {
+                TOTAL_COLOUR
+            } else {
+                series_colour(term)
+            },
+            points: losses.iter().map(|(s, v)| (*s, v[term])).collect(),
+        })
+        .collect();
+    draw_loss_curves(path, &series, val, refs)
+}
+
+/// Draws a run's curve picture: the top panel shows the loss `series` (log scale) against the
+/// step, with a legend, the bottom panel the validation PSNR with horizontal reference lines
+/// (e.g. baselines) at `refs`. Series are drawn last to first, so the first lies on top.
+pub fn draw_loss_curves(
+    path: &Path,
+    series: &[LossSeries],
+    val: &[ValPoint],
+    refs: &[f64],
+) -> Result<()> {
+    let mut img = RgbImage::from_pixel(PLOT_W, 2 * PANEL_H, WHITE);
+    let max_step = series
+        .iter()
+        .flat_map(|s| s.points.iter().map(|p| p.0))
         .chain(val.iter().map(|p| p.0))
         .max()
         .unwrap_or(1)
         .max(1) as f64;
     // Loss panel (log10 of positive values).
-    let logs: Vec<(f64, [f64; 5])> = losses
+    let logs: Vec<Vec<(f64, f64)>> = series
         .iter()
-        .map(|(s, v)| {
-            (
-                *s as f64,
-                v.map(|x| if x > 0.0 { x.log10() } else { f64::NAN }),
-            )
+        .map(|s| {
+            s.points
+                .iter()
+                .map(|&(step, v)| (step as f64, if v > 0.0 { v.log10() } else { f64::NAN }))
+                .collect()
         })
         .collect();
     let finite = logs
         .iter()
-        .flat_map(|(_, v)| v.iter().copied())
+        .flat_map(|pts| pts.iter().map(|p| p.1))
         .filter(|v| v.is_finite());
     let (lo, hi) = bounds(finite);
     let panel = Panel::new(0, (0.0, max_step), (lo, hi));
     panel.frame(&mut img, "LOSS LOG10", |v| format!("{:.2}", 10f64.powf(v)));
     let mut legend_x = panel.x0 + panel.w;
-    for term in (0..5).rev() {
-        let pts: Vec<(f64, f64)> = logs.iter().map(|(s, v)| (*s, v[term])).collect();
-        panel.polyline(&mut img, &pts, TERM_COLOURS[term]);
-        legend_x -= text_width(TERM_NAMES[term]) + 12;
-        draw_text(
-            &mut img,
-            legend_x,
-            panel.y0 - 16,
-            TERM_NAMES[term],
-            TERM_COLOURS[term],
-        );
+    for (s, pts) in series.iter().zip(&logs).rev() {
+        let colour = Rgb(s.colour);
+        panel.polyline(&mut img, pts, colour);
+        legend_x -= text_width(&s.name) + 12;
+        draw_text(&mut img, legend_x, panel.y0 - 16, &s.name, colour);
     }
     // Validation panel.
     let (lo, hi) = bounds(val.iter().map(|p| p.1).chain(refs.iter().copied()));
@@ -278,6 +318,19 @@ fn glyph(ch: char) -> [u8; 5] {
         'S' => [7, 4, 7, 1, 7],
         'T' => [7, 2, 2, 2, 2],
         'V' => [5, 5, 5, 5, 2],
+        'J' => [1, 1, 1, 5, 7],
+        'Q' => [2, 5, 5, 6, 3],
+        'W' => [5, 5, 7, 7, 5],
+        'X' => [5, 5, 2, 5, 5],
+        'Y' => [5, 5, 2, 2, 2],
+        'Z' => [7, 1, 2, 4, 7],
+        ',' => [0, 0, 0, 2, 4],
+        '/' => [1, 1, 2, 4, 4],
+        '(' => [1, 2, 2, 2, 1],
+        ')' => [4, 2, 2, 2, 4],
+        ':' => [0, 2, 0, 2, 0],
+        '_' => [0, 0, 0, 0, 7],
+        '%' => [5, 1, 2, 4, 5],
         _ => [0; 5],
     }
 }
@@ -328,4 +381,40 @@ pub fn contact_sheet(path: &Path, rows: &[(Image, Image, Image)], thumb: usize) 
     let sheet = uwnr_core::sheet::contact_sheet(&rows, thumb)?;
     save_rgb(path, &sheet)?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_capital_and_digit_has_a_glyph() {
+        for ch in ('A'..='Z').chain('0'..='9').chain(".,-+/():_%".chars()) {
+            assert_ne!(glyph(ch), [0; 5], "{ch:?} has no glyph");
+        }
+        assert_eq!(glyph('m'), glyph('M'));
+    }
+
+    #[test]
+    fn named_series_are_drawn_in_their_colours() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("curves.png");
+        let series = vec![
+            LossSeries {
+                name: "MSE".into(),
+                colour: series_colour(0),
+                points: (1..=20).map(|s| (s, 1.0 / s as f64)).collect(),
+            },
+            LossSeries {
+                name: "TOTAL".into(),
+                colour: TOTAL_COLOUR,
+                points: (1..=20).map(|s| (s, 2.0 / s as f64)).collect(),
+            },
+        ];
+        draw_loss_curves(&path, &series, &[(10, 20.0), (20, 22.0)], &[21.0]).unwrap();
+        let img = image::open(&path).unwrap().to_rgb8();
+        assert_eq!(img.dimensions(), (PLOT_W, 2 * PANEL_H));
+        let has = |c: [u8; 3]| img.pixels().any(|p| p.0 == c);
+        assert!(has(series_colour(0)) && has(VAL_COLOUR.0) && has(REF_COLOUR.0));
+    }
 }

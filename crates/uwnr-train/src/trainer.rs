@@ -252,19 +252,7 @@ pub fn train(
         )));
         (m, o, s)
     } else {
-        let m = {
-            // burn's random initialisers draw from one process-wide generator: seeding it and
-            // building the network under a lock gives every run its seed's weights even when
-            // several run in one process (as tests do). burn initialises parameters lazily, at
-            // first use, so they are all touched before the lock is released.
-            let _guard = INIT_LOCK
-                .lock()
-                .unwrap_or_else(std::sync::PoisonError::into_inner);
-            device.seed(cfg.seed);
-            let m = cfg.model.init(&device)?;
-            m.visit(&mut Materialise);
-            m
-        };
+        let m = init_seeded(cfg.seed, &device, || cfg.model.init(&device))?;
         let s = RunState {
             version: STATE_VERSION,
             step: 0,
@@ -557,6 +545,26 @@ impl burn::module::ModuleVisitor for Materialise {
 
 /// Serialises seeding burn's process-wide generator and drawing the initial weights.
 static INIT_LOCK: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+/// Builds a network with the initial weights of `seed`, whatever else runs in the process.
+///
+/// burn's random initialisers draw from one process-wide generator: seeding it and building the
+/// network under a lock gives every run its seed's weights even when several run in one process
+/// (as tests do). burn initialises parameters lazily, at first use, so they are all touched
+/// before the lock is released. `build` must create the network on `device`.
+pub fn init_seeded<M: Module, E>(
+    seed: u64,
+    device: &Device,
+    build: impl FnOnce() -> std::result::Result<M, E>,
+) -> std::result::Result<M, E> {
+    let _guard = INIT_LOCK
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
+    device.seed(seed);
+    let m = build()?;
+    m.visit(&mut Materialise);
+    Ok(m)
+}
 
 /// One optimisation step: forward, loss, backward, AdamW update at `lr`.
 pub fn train_step(

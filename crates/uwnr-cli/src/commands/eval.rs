@@ -63,6 +63,9 @@ pub fn run(a: &EvalArgs) -> Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
+/// A scored file: its table row and its features (when a feature metric is asked for), or why it failed.
+type ScoredFile = Result<(Row, Option<Vec<f64>>), String>;
+
 fn stem_map(files: &[PathBuf]) -> BTreeMap<String, PathBuf> {
     files
         .iter()
@@ -173,7 +176,7 @@ fn no_reference(
         (Some(_), None) => Some(Box::new(ColorTextureFeatures::new())),
     };
     let batch = Mutex::new(Batch::new(files.len(), "scoring"));
-    let results: Vec<Result<(Row, Option<Vec<f64>>), String>> = files
+    let results: Vec<ScoredFile> = files
         .par_iter()
         .map(|p| {
             let r = score_single(p, limits, extractor.as_deref());
@@ -202,7 +205,7 @@ fn no_reference(
     }
     let mut set = SetMetrics::new();
     if let (Some(real), Some(ex)) = (&a.real, extractor.as_deref()) {
-        let real_files = expand_images(&[real.clone()], "real image")?;
+        let real_files = expand_images(std::slice::from_ref(real), "real image")?;
         let real_feats: Vec<Vec<f64>> = real_files
             .par_iter()
             .filter_map(|p| {

@@ -3,7 +3,9 @@
 mod convert;
 mod dataset;
 mod depth;
+mod enhance;
 mod eval;
+pub(crate) mod experiment;
 mod info;
 mod lightfield;
 mod method;
@@ -30,6 +32,8 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
         Command::Train(a) => train::run(&a),
         Command::Eval(a) => eval::run(&a),
         Command::Dataset(a) => dataset::run(&a),
+        Command::Experiment(a) => experiment::run(&a),
+        Command::Enhance(a) => enhance::run(&a),
     }
 }
 

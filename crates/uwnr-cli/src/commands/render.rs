@@ -113,18 +113,15 @@ pub fn run(a: &RenderArgs) -> Result<ExitCode> {
     let mut batch = Batch::new(jobs.len(), "rendering");
     for (index, job) in jobs.iter().enumerate() {
         let clean_path = &cleans[job.clean];
-        let reference = match job.reference {
-            Some(r) => Some(
-                ref_inputs
-                    .entry(r)
-                    .or_insert_with(|| {
-                        reference_input(&refs[r], &renderer, &limits).map_err(|e| format!("{e:#}"))
-                    })
-                    .as_ref()
-                    .map_err(|msg| anyhow!("{msg}")),
-            ),
-            None => None,
-        };
+        let reference = job.reference.map(|r| {
+            ref_inputs
+                .entry(r)
+                .or_insert_with(|| {
+                    reference_input(&refs[r], &renderer, &limits).map_err(|e| format!("{e:#}"))
+                })
+                .as_ref()
+                .map_err(|msg| anyhow!("{msg}"))
+        });
         let result = match reference.transpose() {
             Ok(r) => render_one(
                 clean_path,

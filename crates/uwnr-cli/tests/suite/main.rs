@@ -4,3 +4,5 @@ mod cli;
 #[allow(dead_code)]
 mod common;
 mod dataset;
+mod enhance;
+mod experiment;

@@ -195,7 +195,10 @@ fn absolute_map_keeps_brightness_the_paper_map_drops() {
 fn map_names_parse() {
     for m in [LightFieldMap::Paper, LightFieldMap::Absolute] {
         assert_eq!(m.name().parse::<LightFieldMap>().unwrap(), m);
-        assert_eq!(serde_json::to_string(&m).unwrap(), format!("\"{}\"", m.name()));
+        assert_eq!(
+            serde_json::to_string(&m).unwrap(),
+            format!("\"{}\"", m.name())
+        );
     }
     assert!("brightness".parse::<LightFieldMap>().is_err());
 }

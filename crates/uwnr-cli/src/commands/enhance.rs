@@ -1,0 +1,300 @@
+//! `uwnr enhance`: the Shallow-UWnet enhancer of the downstream experiment (library:
+//! `uwnr_enhance`).
+//!
+//! - `enhance train`: trains it on paired folders (underwater -> clean), with exact resume;
+//! - `enhance apply`: enhances images or folders of images with trained weights;
+//! - `enhance eval`: scores weights, or no enhancement at all, on a paired test folder.
+
+use std::path::Path;
+use std::process::ExitCode;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use anyhow::{Context, Result, bail};
+use indicatif::{ProgressBar, ProgressStyle};
+use serde_json::json;
+use uwnr_core::io::{DecodeLimits, is_image_path, load_rgb, save_rgb, write_atomic};
+use uwnr_enhance::train::CONFIG_FILE;
+use uwnr_enhance::{
+    EnhanceEvent, EnhanceTrainConfig, EnhanceTrainOptions, EvalReport, ShallowUwnet,
+};
+use uwnr_model::Device;
+
+use crate::cli::{
+    EnhanceAction, EnhanceApplyArgs, EnhanceArgs, EnhanceEvalArgs, EnhanceTrainArgs, Pairing,
+};
+use crate::inputs::{Job, expand_images, plan_jobs};
+use crate::report::Batch;
+
+pub fn run(a: &EnhanceArgs) -> Result<ExitCode> {
+    match &a.action {
+        EnhanceAction::Train(t) => train(t),
+        EnhanceAction::Apply(t) => apply(t),
+        EnhanceAction::Eval(t) => eval(t),
+    }
+}
+
+fn train(a: &EnhanceTrainArgs) -> Result<ExitCode> {
+    let cfg = config(a)?;
+    let device = super::device(a.device)?;
+    let mut opts = EnhanceTrainOptions::new(a.data.clone(), a.run.clone(), device);
+    opts.val = a.val.clone();
+    opts.resume = a.resume;
+    opts.vgg19 = a.vgg19.clone();
+    opts.max_steps = a.max_steps;
+
+    let stop = Arc::new(AtomicBool::new(false));
+    let flag = stop.clone();
+    ctrlc::set_handler(move || {
+        if flag.swap(true, Ordering::SeqCst) {
+            // A second Ctrl-C: give up on the clean stop.
+            std::process::exit(130);
+        }
+        eprintln!(
+            "\nuwnr: stopping after this step and writing a checkpoint (Ctrl-C again to abort)"
+        );
+    })
+    .context("installing the Ctrl-C handler")?;
+
+    let bar = ProgressBar::new(0);
+    if let Ok(style) = ProgressStyle::with_template(
+        "{spinner} step {pos}/{len} [{bar:30}] {per_sec} eta {eta} {msg}",
+    ) {
+        bar.set_style(style.progress_chars("=> "));
+    }
+    let mut observer = |e: EnhanceEvent<'_>| match e {
+        EnhanceEvent::Message(m) => bar.suspend(|| eprintln!("{m}")),
+        EnhanceEvent::Started {
+            step, total_steps, ..
+        } => {
+            bar.set_length(total_steps as u64);
+            bar.set_position(step as u64);
+            bar.reset_eta();
+        }
+        EnhanceEvent::Step {
+            step, epoch, total, ..
+        } => {
+            bar.set_position(step as u64);
+            bar.set_message(format!("epoch {epoch} loss {total:.4}"));
+        }
+        EnhanceEvent::Validation {
+            step,
+            epoch,
+            psnr,
+            ssim,
+        } => bar.suspend(|| {
+            eprintln!(
+                "validation at step {step} (epoch {epoch}): PSNR {psnr:.2} dB, SSIM {ssim:.4}"
+            );
+        }),
+        EnhanceEvent::Checkpoint { step, path } => {
+            bar.suspend(|| eprintln!("checkpoint at step {step}: {}", path.display()));
+        }
+    };
+    let summary = uwnr_enhance::train(&cfg, &opts, &stop, &mut observer)
+        .with_context(|| format!("training run {}", a.run.display()))?;
+    bar.finish_and_clear();
+    let state = if summary.finished {
+        "finished"
+    } else if summary.interrupted {
+        "stopped (resume with --resume)"
+    } else {
+        "paused (resume with --resume)"
+    };
+    eprintln!(
+        "{state} at step {} ({} steps this session); weights: {}{}",
+        summary.step,
+        summary.session_steps,
+        summary.last_weights.display(),
+        summary
+            .best
+            .zip(summary.best_weights.as_ref())
+            .map(|((p, s), w)| format!(
+                "; best validation PSNR {p:.2} dB at step {s}: {}",
+                w.display()
+            ))
+            .unwrap_or_default()
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The run's config: the run folder's `config.json` on resume, else `--config` or the
+/// defaults; then the command-line overrides.
+fn config(a: &EnhanceTrainArgs) -> Result<EnhanceTrainConfig> {
+    let saved = a.run.join(CONFIG_FILE);
+    let mut cfg = if a.resume {
+        if a.config.is_some() {
+            bail!(
+                "--resume uses the run's own {}; drop --config",
+                saved.display()
+            );
+        }
+        EnhanceTrainConfig::from_json_file(&saved)
+            .with_context(|| format!("reading {}", saved.display()))?
+    } else if let Some(path) = &a.config {
+        EnhanceTrainConfig::from_json_file(path)
+            .with_context(|| format!("reading {}", path.display()))?
+    } else {
+        EnhanceTrainConfig::default()
+    };
+    if let Some(v) = a.epochs {
+        cfg.epochs = v;
+    }
+    if let Some(v) = a.batch_size {
+        cfg.batch_size = v;
+    }
+    if let Some(v) = a.crop {
+        cfg.crop = v;
+    }
+    if let Some(v) = a.seed {
+        cfg.seed = v;
+    }
+    if let Some(v) = a.lr {
+        cfg.lr = v;
+    }
+    cfg.validate()
+        .context("checking the enhancer training config")?;
+    Ok(cfg)
+}
+
+/// Loads enhancer weights with a one-line error.
+fn load_net(path: &Path, device: &Device) -> Result<ShallowUwnet> {
+    let (net, _) = uwnr_enhance::weights::load(path, device)
+        .with_context(|| format!("loading enhancer weights {}", path.display()))?;
+    Ok(net)
+}
+
+fn apply(a: &EnhanceApplyArgs) -> Result<ExitCode> {
+    let images = expand_images(&a.images, "input")?;
+    let single_file = images.len() == 1 && is_image_path(&a.output) && !a.output.is_dir();
+    let jobs: Vec<Job> = if single_file {
+        vec![Job {
+            clean: 0,
+            reference: None,
+            output: a.output.clone(),
+        }]
+    } else {
+        if is_image_path(&a.output) && !a.output.is_dir() {
+            bail!(
+                "--output {} names an image file, but {} images were given: pass a directory",
+                a.output.display(),
+                images.len()
+            );
+        }
+        std::fs::create_dir_all(&a.output)
+            .with_context(|| format!("creating output directory {}", a.output.display()))?;
+        plan_jobs(
+            &images,
+            &[],
+            Pairing::Cycle,
+            0,
+            &a.output,
+            a.format.extension(),
+        )
+    };
+    let device = super::device(a.device)?;
+    let net = load_net(&a.weights, &device)?;
+    let limits = DecodeLimits::default();
+    let mut batch = Batch::new(jobs.len(), "enhancing");
+    for job in &jobs {
+        let input = &images[job.clean];
+        let result = (|| -> Result<()> {
+            let img = load_rgb(input, &limits).context("reading image")?;
+            let out = uwnr_enhance::enhance(&net, &img, &device).context("enhancing")?;
+            save_rgb(&job.output, &out)
+                .with_context(|| format!("writing {}", job.output.display()))?;
+            Ok(())
+        })();
+        match result {
+            Ok(()) => batch.ok(),
+            Err(e) => batch.fail(input.clone(), &e),
+        }
+    }
+    let all_ok = batch.finish("enhance");
+    if single_file && all_ok {
+        eprintln!("wrote {}", a.output.display());
+    }
+    Ok(if all_ok {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    })
+}
+
+fn eval(a: &EnhanceEvalArgs) -> Result<ExitCode> {
+    let device = super::device(a.device)?;
+    let net = match &a.weights {
+        Some(p) => Some(load_net(p, &device)?),
+        None => None,
+    };
+    let label = match &a.weights {
+        Some(p) => format!("enhancer {}", p.display()),
+        None => "no enhancement (the underwater input is scored)".to_string(),
+    };
+    let report = uwnr_enhance::evaluate_dir(
+        net.as_ref(),
+        &a.data,
+        &device,
+        a.save.as_deref(),
+        a.max_side,
+        &DecodeLimits::default(),
+    )
+    .with_context(|| format!("evaluating on {}", a.data.display()))?;
+    print_table(&label, &report);
+    let downscaled = report
+        .per_image
+        .iter()
+        .filter(|s| s.downscaled_from.is_some())
+        .count();
+    if let (Some(n), true) = (a.max_side, downscaled > 0) {
+        eprintln!("note: {downscaled} pair(s) downscaled to a longer side of {n} before scoring");
+    }
+    if !report.skipped.is_empty() {
+        eprintln!(
+            "{} file(s) without a partner, not scored:",
+            report.skipped.len()
+        );
+        for s in &report.skipped {
+            eprintln!("  {s}");
+        }
+    }
+    if let Some(path) = &a.json {
+        let doc = json!({
+            "enhancer": a.weights.as_ref().map(|p| p.display().to_string()),
+            "label": label,
+            "data": a.data.display().to_string(),
+            "max_side": a.max_side,
+            "report": report,
+        });
+        let text = serde_json::to_string_pretty(&doc).context("encoding the scores as JSON")?;
+        write_atomic(path, |out| out.write_all(text.as_bytes()))
+            .with_context(|| format!("writing {}", path.display()))?;
+    }
+    if let Some(dir) = &a.save {
+        eprintln!("outputs written to {}", dir.display());
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The per-image scores and their means, on stdout.
+fn print_table(label: &str, r: &EvalReport) {
+    let width = r
+        .per_image
+        .iter()
+        .map(|s| s.name.len())
+        .chain(["mean".len()])
+        .max()
+        .unwrap_or(4);
+    println!("# {label}");
+    println!(
+        "{:<width$}  {:>8}  {:>7}  {:>7}  {:>7}",
+        "image", "PSNR", "SSIM", "UIQM", "UCIQE"
+    );
+    let row = |name: &str, p: f64, s: f64, q: f64, c: f64| {
+        println!("{name:<width$}  {p:>8.3}  {s:>7.4}  {q:>7.4}  {c:>7.4}");
+    };
+    for s in &r.per_image {
+        row(&s.name, s.psnr, s.ssim, s.uiqm, s.uciqe);
+    }
+    row("mean", r.psnr, r.ssim, r.uiqm, r.uciqe);
+}
