@@ -113,6 +113,9 @@ pub struct EnhanceTrainConfig {
     pub checkpoint_every_secs: u64,
     /// Use at most this many pairs of each data folder (the first in name order).
     pub max_pairs_per_dir: Option<usize>,
+    /// End the run after this many steps in total, its last epoch then partial (at most
+    /// `epochs` whole epochs either way): how runs on sets of different sizes get the same budget.
+    pub total_steps: Option<usize>,
 }
 
 impl Default for EnhanceTrainConfig {
@@ -132,6 +135,7 @@ impl Default for EnhanceTrainConfig {
             log_every_steps: 10,
             checkpoint_every_secs: 900,
             max_pairs_per_dir: None,
+            total_steps: None,
         }
     }
 }
@@ -173,6 +177,9 @@ impl EnhanceTrainConfig {
         }
         if self.max_pairs_per_dir == Some(0) {
             return bad("max_pairs_per_dir", "must be at least 1 when given".into());
+        }
+        if self.total_steps == Some(0) {
+            return bad("total_steps", "must be at least 1 when given".into());
         }
         Ok(())
     }
@@ -363,7 +370,9 @@ pub fn train(
         ))
         .into());
     }
-    let total_steps = cfg.epochs * steps_per_epoch;
+    let total_steps = cfg.total_steps.map_or(cfg.epochs * steps_per_epoch, |t| {
+        t.min(cfg.epochs * steps_per_epoch)
+    });
 
     let device = opts.device.clone().autodiff();
     let adam = AdamConfig::new()

@@ -203,12 +203,15 @@ fn check_settings(out: &Path, settings: &serde_json::Value) -> Result<()> {
     }
 }
 
-/// The training config of one row: epochs so that `budget` samples are seen, the learning rate
-/// decayed [`LR_DECAYS_PER_RUN`] times over the run.
+/// The training config of one row: `budget` samples, i.e. `budget / batch` steps (the last epoch
+/// partial), the learning rate decayed [`LR_DECAYS_PER_RUN`] times over the run.
 fn row_config(spec: &DownstreamSpec, pairs: usize) -> EnhanceTrainConfig {
     let mut cfg = spec.train.clone();
-    let per_epoch = (pairs / cfg.batch_size.max(1)).max(1) * cfg.batch_size.max(1);
-    cfg.epochs = ((spec.budget as f64 / per_epoch as f64).round() as usize).max(1);
+    let batch = cfg.batch_size.max(1);
+    let steps = spec.budget.div_ceil(batch).max(1);
+    let steps_per_epoch = (pairs / batch).max(1);
+    cfg.epochs = steps.div_ceil(steps_per_epoch);
+    cfg.total_steps = Some(steps);
     cfg.lr_step_epochs = cfg.epochs.div_ceil(LR_DECAYS_PER_RUN + 1).max(1);
     cfg.seed = spec.seed;
     cfg
@@ -564,6 +567,39 @@ pub fn run_downstream(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn every_row_gets_the_same_number_of_steps() {
+        let spec = |budget| DownstreamSpec {
+            clean: vec![],
+            references: vec![],
+            tests: vec![],
+            real: vec![],
+            out: PathBuf::new(),
+            per_image: 4,
+            size: Size::Native,
+            seed: 3,
+            depth: DepthSource::default(),
+            train: EnhanceTrainConfig::default(),
+            budget,
+            eval_max_side: None,
+            examples: 0,
+            jobs: 1,
+            device: Device::default(),
+            vgg19: None,
+            limits: DecodeLimits::default(),
+        };
+        let s = spec(6000);
+        for (pairs, epochs) in [(1172, 6), (2415, 3), (4, 1500)] {
+            let cfg = row_config(&s, pairs);
+            assert_eq!(cfg.total_steps, Some(1500), "{pairs} pairs");
+            assert_eq!(cfg.epochs, epochs, "{pairs} pairs");
+            assert!(cfg.epochs * (pairs / 4) >= 1500);
+            assert_eq!(cfg.seed, 3);
+        }
+        assert_eq!(row_config(&s, 1172).lr_step_epochs, 2);
+        assert_eq!(row_config(&spec(1), 10).total_steps, Some(1));
+    }
 
     #[test]
     fn short_names_are_unique() {
