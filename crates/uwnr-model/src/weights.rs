@@ -378,11 +378,17 @@ fn serialize_tensors(
 
 /// Identifies the container from the first bytes.
 fn detect_format(head: &[u8], name: &str) -> Result<WeightsFormat> {
-    if head.starts_with(ZIP_MAGIC) || head.first() == Some(&PICKLE_PROTO) {
+    if head.starts_with(ZIP_MAGIC) {
         return Ok(WeightsFormat::TorchCheckpoint);
     }
+    // Before the pickle test: a safetensors header length whose low byte is 0x80 (e.g. 7,552)
+    // starts the file with the pickle protocol byte. A pickle never has `{` at offset 8 (the
+    // legacy format there holds the magic number's bytes).
     if head.len() > SAFETENSORS_LEN_BYTES && head[SAFETENSORS_LEN_BYTES] == b'{' {
         return Ok(WeightsFormat::Safetensors);
+    }
+    if head.first() == Some(&PICKLE_PROTO) {
+        return Ok(WeightsFormat::TorchCheckpoint);
     }
     Err(ModelError::UnknownFormat {
         source_name: name.to_string(),
@@ -934,6 +940,15 @@ mod tests {
         assert_eq!(
             detect_format(b"\x10\x00\x00\x00\x00\x00\x00\x00{\"a\":1}", "x").unwrap(),
             WeightsFormat::Safetensors
+        );
+        // A header of 7,552 bytes: the first byte is 0x80, the pickle protocol byte.
+        assert_eq!(
+            detect_format(b"\x80\x1d\x00\x00\x00\x00\x00\x00{\"a\":1}", "x").unwrap(),
+            WeightsFormat::Safetensors
+        );
+        assert_eq!(
+            detect_format(b"\x80\x02\x8a\x0a\x6c\xfc\x9c\x46\xf9\x20\x6a", "x").unwrap(),
+            WeightsFormat::TorchCheckpoint
         );
         let err = detect_format(b"\x89PNG\r\n\x1a\n\0\0\0\rIHDR", "photo.png").unwrap_err();
         assert!(err.to_string().contains("photo.png"), "{err}");

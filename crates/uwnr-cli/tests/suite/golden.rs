@@ -18,7 +18,12 @@ const MAX_MEAN_CODE_DIFF: f64 = 0.1;
 
 /// (clean, reference, optional depth map, golden file).
 const CASES: [(&str, &str, Option<&str>, &str); 2] = [
-    ("clean-statues.jpg", "ref-blue.jpg", None, "statues-blue.png"),
+    (
+        "clean-statues.jpg",
+        "ref-blue.jpg",
+        None,
+        "statues-blue.png",
+    ),
     (
         "clean-room.jpg",
         "ref-green.png",
@@ -78,6 +83,9 @@ fn bundled_model_matches_the_golden_renders() {
             .map(|(a, b)| f64::from((a - b).abs()) * 255.0)
             .sum::<f64>()
             / diffs.len() as f64;
-        assert!(moved > 5.0, "{name}: render is within {moved:.1} of the input");
+        assert!(
+            moved > 5.0,
+            "{name}: render is within {moved:.1} of the input"
+        );
     }
 }

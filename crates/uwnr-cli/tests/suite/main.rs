@@ -6,3 +6,4 @@ mod common;
 mod dataset;
 mod enhance;
 mod experiment;
+mod golden;

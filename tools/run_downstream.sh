@@ -1,0 +1,29 @@
+#!/usr/bin/env bash
+# The full downstream experiment behind docs/RESULTS.md: one synthetic training set per method
+# from the clean images of ../shared/data (inair + the rgb folders of rgbd; depth from the
+# built-in prior) with the references of
+# ../shared/data/references (4 per clean image, 256x256), Shallow-UWnet trained on each and on
+# the real euvp-dark pairs with the same budget (6,000 samples: 1,500 steps of 4 x 128²),
+# scored on uieb-val and lsui. The bundled model renders the uwnr set.
+#
+# Run from the repository root; run it again to continue after a stop (every stage resumes).
+# Needs the release binary with the tch feature (about 2.5-3 hours on a 2-core CPU):
+#   LIBTORCH_USE_PYTORCH=1 cargo build --release -p uwnr-cli --features tch
+set -euo pipefail
+DATA=${DATA:-../shared/data}
+OUT=${OUT:-../uwnr-runs/downstream-v1}
+DEVICE=${DEVICE:-tch}
+BIN=${BIN:-target/release/uwnr}
+export LIBTORCH_USE_PYTORCH=1
+if [ "$DEVICE" = tch ] && [ -z "${LIBTORCH:-}" ]; then
+  TORCH_LIB=$(python3 -c 'import os, torch; print(os.path.join(os.path.dirname(torch.__file__), "lib"))')
+  export LD_LIBRARY_PATH="$TORCH_LIB:${LD_LIBRARY_PATH:-}"
+fi
+mkdir -p "$(dirname "$OUT")"
+exec "$BIN" experiment downstream \
+  --clean "$DATA/inair" "$DATA"/rgbd/*/rgb \
+  --references "$DATA/references" \
+  --test "$DATA/paired/uieb-val" "$DATA/paired/lsui" \
+  --real "$DATA/paired/euvp-dark" \
+  --methods uwnr,jerlov,uisa,seathru,reinhard --per-image 4 --size 256x256 \
+  --budget 6000 --seed 0 --device "$DEVICE" --out "$OUT"
