@@ -1,14 +1,10 @@
 //! `uwnr dataset`, `uwnr dataset verify`, `uwnr dataset merge` (library: `uwnr_dataset`).
 
 use std::process::ExitCode;
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
 
 use anyhow::{Context, Result};
-use indicatif::{ProgressBar, ProgressStyle};
 use uwnr_core::io::DecodeLimits;
 use uwnr_dataset::{Event, Renderer, RunOptions, Spec};
-use uwnr_model::RenderOptions;
 
 use crate::cli::{DatasetAction, DatasetArgs, DatasetMakeArgs};
 
@@ -50,38 +46,12 @@ pub fn run(a: &DatasetArgs) -> Result<ExitCode> {
     }
 }
 
-fn bar(template: &str) -> ProgressBar {
-    let bar = ProgressBar::new(0);
-    if let Ok(style) = ProgressStyle::with_template(template) {
-        bar.set_style(style.progress_chars("=> "));
-    }
-    bar
-}
-
 fn renderer(a: &DatasetMakeArgs) -> Result<Renderer> {
     let have_refs = !a.references.is_empty();
     if let Some(method) = super::method::baseline_method(a.method, &a.baseline, have_refs)? {
         return Ok(Renderer::Baseline(method));
     }
-    let device = super::device(a.model.device)?;
-    let (generator, config, _info, source) =
-        super::load_model(a.model.weights.as_deref(), &device)?;
-    let bytes = match &a.model.weights {
-        Some(p) => std::fs::read(p).with_context(|| format!("reading {}", p.display()))?,
-        None => super::bundled_weights().unwrap_or_default().to_vec(),
-    };
-    Ok(Renderer::network(
-        generator,
-        config,
-        RenderOptions {
-            max_tile_pixels: a.model.max_whole_pixels,
-            tile: a.model.tile,
-            overlap: a.model.overlap,
-        },
-        device,
-        source,
-        &bytes,
-    ))
+    super::network_renderer(&a.model)
 }
 
 fn make(a: &DatasetMakeArgs) -> Result<ExitCode> {
@@ -111,17 +81,12 @@ fn make(a: &DatasetMakeArgs) -> Result<ExitCode> {
         gallery: !a.no_gallery,
     };
 
-    let stop = Arc::new(AtomicBool::new(false));
-    let flag = stop.clone();
-    ctrlc::set_handler(move || {
-        if flag.swap(true, Ordering::SeqCst) {
-            std::process::exit(130);
-        }
-        eprintln!("\nuwnr: finishing the pairs in progress (Ctrl-C again to abort; resume with the same command)");
-    })
-    .context("installing the Ctrl-C handler")?;
+    let stop = super::stop_on_ctrl_c(
+        "finishing the pairs in progress (Ctrl-C again to abort; resume with the same command)",
+    )?;
 
-    let bar = bar("{spinner} pairs {pos}/{len} [{bar:30}] {per_sec} eta {eta} {msg}");
+    let bar =
+        super::progress_bar("{spinner} pairs {pos}/{len} [{bar:30}] {per_sec} eta {eta} {msg}");
     let mut observer = |e: Event<'_>| match e {
         Event::Start {
             planned,
@@ -185,7 +150,7 @@ fn make(a: &DatasetMakeArgs) -> Result<ExitCode> {
 }
 
 fn verify(out: &std::path::Path) -> Result<ExitCode> {
-    let bar = bar("{spinner} checking {pos}/{len} pairs [{bar:30}] eta {eta}");
+    let bar = super::progress_bar("{spinner} checking {pos}/{len} pairs [{bar:30}] eta {eta}");
     let progress = |done: usize, total: usize| {
         bar.set_length(total as u64);
         bar.set_position(done as u64);

@@ -7,11 +7,8 @@
 
 use std::path::Path;
 use std::process::ExitCode;
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
 
 use anyhow::{Context, Result, bail};
-use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
 use uwnr_core::io::{DecodeLimits, is_image_path, load_rgb, save_rgb, write_atomic};
 use uwnr_enhance::train::CONFIG_FILE;
@@ -43,25 +40,12 @@ fn train(a: &EnhanceTrainArgs) -> Result<ExitCode> {
     opts.vgg19 = a.vgg19.clone();
     opts.max_steps = a.max_steps;
 
-    let stop = Arc::new(AtomicBool::new(false));
-    let flag = stop.clone();
-    ctrlc::set_handler(move || {
-        if flag.swap(true, Ordering::SeqCst) {
-            // A second Ctrl-C: give up on the clean stop.
-            std::process::exit(130);
-        }
-        eprintln!(
-            "\nuwnr: stopping after this step and writing a checkpoint (Ctrl-C again to abort)"
-        );
-    })
-    .context("installing the Ctrl-C handler")?;
+    let stop = super::stop_on_ctrl_c(
+        "stopping after this step and writing a checkpoint (Ctrl-C again to abort)",
+    )?;
 
-    let bar = ProgressBar::new(0);
-    if let Ok(style) = ProgressStyle::with_template(
-        "{spinner} step {pos}/{len} [{bar:30}] {per_sec} eta {eta} {msg}",
-    ) {
-        bar.set_style(style.progress_chars("=> "));
-    }
+    let bar =
+        super::progress_bar("{spinner} step {pos}/{len} [{bar:30}] {per_sec} eta {eta} {msg}");
     let mut observer = |e: EnhanceEvent<'_>| match e {
         EnhanceEvent::Message(m) => bar.suspend(|| eprintln!("{m}")),
         EnhanceEvent::Started {

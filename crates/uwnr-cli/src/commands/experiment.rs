@@ -2,17 +2,13 @@
 
 use std::path::PathBuf;
 use std::process::ExitCode;
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
 
 use anyhow::{Context, Result};
 use clap::{Args, Subcommand};
-use indicatif::{ProgressBar, ProgressStyle};
 use uwnr_core::io::DecodeLimits;
 use uwnr_dataset::Renderer;
 use uwnr_experiment::enhance::train::{EnhanceEvent, EnhanceTrainConfig};
 use uwnr_experiment::{DownstreamSpec, Event, ExperimentError, TrainingSet};
-use uwnr_model::RenderOptions;
 
 use crate::cli::{BaselineOpts, DepthOpts, MethodArg, ModelOpts};
 
@@ -123,29 +119,7 @@ fn training_sets(a: &DownstreamArgs) -> Result<Vec<TrainingSet>> {
     for &m in &a.methods {
         let renderer = match super::method::baseline_method(m, &a.baseline, have_refs)? {
             Some(method) => Renderer::Baseline(method),
-            None => {
-                let device = super::device(a.model.device)?;
-                let (generator, config, _info, source) =
-                    super::load_model(a.model.weights.as_deref(), &device)?;
-                let bytes = match &a.model.weights {
-                    Some(p) => {
-                        std::fs::read(p).with_context(|| format!("reading {}", p.display()))?
-                    }
-                    None => super::bundled_weights().unwrap_or_default().to_vec(),
-                };
-                Renderer::network(
-                    generator,
-                    config,
-                    RenderOptions {
-                        max_tile_pixels: a.model.max_whole_pixels,
-                        tile: a.model.tile,
-                        overlap: a.model.overlap,
-                    },
-                    device,
-                    source,
-                    &bytes,
-                )
-            }
+            None => super::network_renderer(&a.model)?,
         };
         sets.push(TrainingSet {
             name: method_name(m).to_string(),
@@ -197,22 +171,11 @@ fn downstream(a: &DownstreamArgs) -> Result<ExitCode> {
         limits: DecodeLimits::default(),
     };
 
-    let stop = Arc::new(AtomicBool::new(false));
-    let flag = stop.clone();
-    ctrlc::set_handler(move || {
-        if flag.swap(true, Ordering::SeqCst) {
-            std::process::exit(130);
-        }
-        eprintln!("\nuwnr: stopping at the next safe point (Ctrl-C again to abort; run the same command to continue)");
-    })
-    .context("installing the Ctrl-C handler")?;
+    let stop = super::stop_on_ctrl_c(
+        "stopping at the next safe point (Ctrl-C again to abort; run the same command to continue)",
+    )?;
 
-    let bar = ProgressBar::new(0);
-    if let Ok(style) =
-        ProgressStyle::with_template("{spinner} {prefix} {pos}/{len} [{bar:30}] eta {eta} {msg}")
-    {
-        bar.set_style(style.progress_chars("=> "));
-    }
+    let bar = super::progress_bar("{spinner} {prefix} {pos}/{len} [{bar:30}] eta {eta} {msg}");
     let mut observer = |e: Event<'_>| match e {
         Event::Stage(s) => {
             bar.suspend(|| eprintln!("== {s}"));

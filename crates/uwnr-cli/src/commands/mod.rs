@@ -14,6 +14,10 @@ mod train;
 
 use std::path::Path;
 use std::process::ExitCode;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use indicatif::{ProgressBar, ProgressStyle};
 
 use anyhow::{Context, Result, bail};
 use uwnr_depth::DepthSource;
@@ -98,4 +102,51 @@ pub fn depth_source(o: &DepthOpts) -> DepthSource {
     } else {
         DepthSource::Builtin
     }
+}
+
+/// A stop flag that Ctrl-C raises: the first press prints `message` and lets the command stop at
+/// its next safe point; a second press exits at once with status 130.
+pub fn stop_on_ctrl_c(message: &'static str) -> Result<Arc<AtomicBool>> {
+    let stop = Arc::new(AtomicBool::new(false));
+    let flag = stop.clone();
+    ctrlc::set_handler(move || {
+        if flag.swap(true, Ordering::SeqCst) {
+            std::process::exit(130);
+        }
+        eprintln!("\nuwnr: {message}");
+    })
+    .context("installing the Ctrl-C handler")?;
+    Ok(stop)
+}
+
+/// A progress bar drawn with the indicatif `template` (length set later).
+pub fn progress_bar(template: &str) -> ProgressBar {
+    let bar = ProgressBar::new(0);
+    if let Ok(style) = ProgressStyle::with_template(template) {
+        bar.set_style(style.progress_chars("=> "));
+    }
+    bar
+}
+
+/// The UWNR network as a dataset renderer: `--weights` or the bundled model, with the weight
+/// bytes fingerprinted into the dataset's settings.
+pub fn network_renderer(model: &crate::cli::ModelOpts) -> Result<uwnr_dataset::Renderer> {
+    let device = device(model.device)?;
+    let (generator, config, _info, source) = load_model(model.weights.as_deref(), &device)?;
+    let bytes = match &model.weights {
+        Some(p) => std::fs::read(p).with_context(|| format!("reading {}", p.display()))?,
+        None => bundled_weights().unwrap_or_default().to_vec(),
+    };
+    Ok(uwnr_dataset::Renderer::network(
+        generator,
+        config,
+        uwnr_model::RenderOptions {
+            max_tile_pixels: model.max_whole_pixels,
+            tile: model.tile,
+            overlap: model.overlap,
+        },
+        device,
+        source,
+        &bytes,
+    ))
 }

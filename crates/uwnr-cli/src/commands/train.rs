@@ -1,11 +1,8 @@
 //! `uwnr train`: trains the generator on paired folders (library: `uwnr_train::train`).
 
 use std::process::ExitCode;
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
 
 use anyhow::{Context, Result, bail};
-use indicatif::{ProgressBar, ProgressStyle};
 use uwnr_model::GeneratorConfig;
 use uwnr_train::trainer::CONFIG_FILE;
 use uwnr_train::{ColorCast, Event, LightFieldLoss, TrainConfig, TrainOptions};
@@ -22,25 +19,12 @@ pub fn run(a: &TrainArgs) -> Result<ExitCode> {
     opts.max_steps = a.max_steps;
     opts.val_refs = a.val_refs.clone();
 
-    let stop = Arc::new(AtomicBool::new(false));
-    let flag = stop.clone();
-    ctrlc::set_handler(move || {
-        if flag.swap(true, Ordering::SeqCst) {
-            // A second Ctrl-C: give up on the clean stop.
-            std::process::exit(130);
-        }
-        eprintln!(
-            "\nuwnr: stopping after this step and writing a checkpoint (Ctrl-C again to abort)"
-        );
-    })
-    .context("installing the Ctrl-C handler")?;
+    let stop = super::stop_on_ctrl_c(
+        "stopping after this step and writing a checkpoint (Ctrl-C again to abort)",
+    )?;
 
-    let bar = ProgressBar::new(0);
-    if let Ok(style) = ProgressStyle::with_template(
-        "{spinner} step {pos}/{len} [{bar:30}] {per_sec} eta {eta} {msg}",
-    ) {
-        bar.set_style(style.progress_chars("=> "));
-    }
+    let bar =
+        super::progress_bar("{spinner} step {pos}/{len} [{bar:30}] {per_sec} eta {eta} {msg}");
     let mut observer = |e: Event<'_>| match e {
         Event::Message(m) => bar.suspend(|| eprintln!("{m}")),
         Event::Started {
