@@ -45,7 +45,7 @@ use uwnr_model::weights::SOURCE_METADATA_KEY;
 use uwnr_train::TrainError;
 use uwnr_train::augment::{epoch_order, mix64};
 use uwnr_train::checkpoint::{
-    BEST, CHECKPOINTS_DIR, LAST, RunState, STATE_VERSION, find_checkpoint, load_module_checkpoint,
+    BEST, CHECKPOINTS_DIR, LAST, RunState, find_checkpoint, load_module_checkpoint,
     save_module_checkpoint,
 };
 use uwnr_train::csvlog::{CsvLog, VAL_HEADER};
@@ -387,21 +387,7 @@ pub fn train(
             reason: "no checkpoint to resume from".into(),
         })?;
         let (m, o, s) = load_module_checkpoint(&dir, cfg.model.init(&device)?, adam.init())?;
-        if s.steps_per_epoch != steps_per_epoch || s.pairs != pairs.len() || s.seed != cfg.seed {
-            return Err(TrainError::Checkpoint {
-                path: dir,
-                reason: format!(
-                    "written for {} pairs / {} steps per epoch / seed {}, the data now gives {} / {} / {}",
-                    s.pairs,
-                    s.steps_per_epoch,
-                    s.seed,
-                    pairs.len(),
-                    steps_per_epoch,
-                    cfg.seed
-                ),
-            }
-            .into());
-        }
+        s.check_resumable(&dir, steps_per_epoch, pairs.len(), cfg.seed)?;
         observer(EnhanceEvent::Message(&format!(
             "resuming at step {} (epoch {}, batch {})",
             s.step, s.epoch, s.batch_in_epoch
@@ -409,17 +395,7 @@ pub fn train(
         (m, o, s)
     } else {
         let m = init_seeded(cfg.seed, &device, || cfg.model.init(&device))?;
-        let s = RunState {
-            version: STATE_VERSION,
-            step: 0,
-            epoch: 0,
-            batch_in_epoch: 0,
-            steps_per_epoch,
-            pairs: pairs.len(),
-            seed: cfg.seed,
-            best: None,
-            train_secs: 0.0,
-        };
+        let s = RunState::start(steps_per_epoch, pairs.len(), cfg.seed);
         (m, adam.init(), s)
     };
     let keep = opts.resume.then_some(state.step);

@@ -70,6 +70,45 @@ pub struct RunState {
     pub train_secs: f64,
 }
 
+impl RunState {
+    /// The state of a run that has not taken a step.
+    #[must_use]
+    pub fn start(steps_per_epoch: usize, pairs: usize, seed: u64) -> Self {
+        Self {
+            version: STATE_VERSION,
+            step: 0,
+            epoch: 0,
+            batch_in_epoch: 0,
+            steps_per_epoch,
+            pairs,
+            seed,
+            best: None,
+            train_secs: 0.0,
+        }
+    }
+
+    /// Checks that the checkpoint in `dir` holding this state can continue with the data and
+    /// seed of this session (a resumed run must see the same batches).
+    pub fn check_resumable(
+        &self,
+        dir: &Path,
+        steps_per_epoch: usize,
+        pairs: usize,
+        seed: u64,
+    ) -> Result<()> {
+        if self.steps_per_epoch != steps_per_epoch || self.pairs != pairs || self.seed != seed {
+            return Err(TrainError::Checkpoint {
+                path: dir.to_path_buf(),
+                reason: format!(
+                    "written for {} pairs / {} steps per epoch / seed {}, the data now gives {} / {} / {}",
+                    self.pairs, self.steps_per_epoch, self.seed, pairs, steps_per_epoch, seed
+                ),
+            });
+        }
+        Ok(())
+    }
+}
+
 /// Writes a checkpoint directory atomically. `optimizer` is omitted for export-only
 /// checkpoints (the best model).
 pub fn save_checkpoint(

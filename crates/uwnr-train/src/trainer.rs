@@ -28,8 +28,7 @@ use uwnr_model::{Generator, RenderOptions, render};
 
 use crate::augment::{INPUT_CHANNELS, TARGET_CHANNELS};
 use crate::checkpoint::{
-    BEST, CHECKPOINTS_DIR, LAST, RunState, STATE_VERSION, find_checkpoint, load_checkpoint,
-    save_checkpoint,
+    BEST, CHECKPOINTS_DIR, LAST, RunState, find_checkpoint, load_checkpoint, save_checkpoint,
 };
 use crate::config::TrainConfig;
 use crate::csvlog::{CsvLog, METRICS_HEADER, VAL_HEADER};
@@ -232,20 +231,7 @@ pub fn train(
             reason: "no checkpoint to resume from".into(),
         })?;
         let (m, o, s) = load_checkpoint(&dir, &cfg.model, adamw.init(), &device)?;
-        if s.steps_per_epoch != steps_per_epoch || s.pairs != pairs.len() || s.seed != cfg.seed {
-            return Err(TrainError::Checkpoint {
-                path: dir,
-                reason: format!(
-                    "written for {} pairs / {} steps per epoch / seed {}, the data now gives {} / {} / {}",
-                    s.pairs,
-                    s.steps_per_epoch,
-                    s.seed,
-                    pairs.len(),
-                    steps_per_epoch,
-                    cfg.seed
-                ),
-            });
-        }
+        s.check_resumable(&dir, steps_per_epoch, pairs.len(), cfg.seed)?;
         observer(Event::Message(&format!(
             "resuming at step {} (epoch {}, batch {})",
             s.step, s.epoch, s.batch_in_epoch
@@ -253,17 +239,7 @@ pub fn train(
         (m, o, s)
     } else {
         let m = init_seeded(cfg.seed, &device, || cfg.model.init(&device))?;
-        let s = RunState {
-            version: STATE_VERSION,
-            step: 0,
-            epoch: 0,
-            batch_in_epoch: 0,
-            steps_per_epoch,
-            pairs: pairs.len(),
-            seed: cfg.seed,
-            best: None,
-            train_secs: 0.0,
-        };
+        let s = RunState::start(steps_per_epoch, pairs.len(), cfg.seed);
         (m, adamw.init(), s)
     };
     let keep = opts.resume.then_some(state.step);
