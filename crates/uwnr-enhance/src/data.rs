@@ -19,7 +19,9 @@ use uwnr_core::resize::resize_bilinear;
 use uwnr_train::TrainError;
 use uwnr_train::augment::{plan_sample, source_of};
 use uwnr_train::config::AugmentConfig;
-use uwnr_train::data::{DataReport, PairPaths, Skipped, discover_pairs, reflect_pad};
+use uwnr_train::data::{
+    DataReport, PairPaths, Skipped, discover_pairs, keep_val_pairs, reflect_pad,
+};
 
 use crate::error::Result;
 use crate::model::IMAGE_CHANNELS;
@@ -119,25 +121,7 @@ pub(crate) fn load(
                     })
                 })
                 .collect();
-            let mut val = Vec::new();
-            for (p, r) in found.pairs.iter().zip(loaded) {
-                match r {
-                    Ok(v) => val.push(v),
-                    Err(e) => report.skipped.push(Skipped {
-                        path: p.underwater.clone(),
-                        reason: format!("validation pair {} not usable: {e}", p.name),
-                    }),
-                }
-            }
-            if val.is_empty() {
-                return Err(TrainError::NoPairs {
-                    dir: dir.to_path_buf(),
-                    reason: "no validation pair could be decoded".into(),
-                }
-                .into());
-            }
-            report.val_dir = Some((dir.to_path_buf(), val.len()));
-            val
+            keep_val_pairs(dir, &found.pairs, loaded, &mut report)?
         }
         None => Vec::new(),
     };

@@ -64,6 +64,34 @@ pub struct FolderPairs {
     pub skipped: Vec<Skipped>,
 }
 
+/// The decoded validation pairs of `dir`: failures are listed in `report` as skipped, and the
+/// folder is recorded there; an error when none could be decoded. `loaded[i]` is `pairs[i]`'s.
+pub fn keep_val_pairs<T, E: std::fmt::Display>(
+    dir: &Path,
+    pairs: &[PairPaths],
+    loaded: Vec<std::result::Result<T, E>>,
+    report: &mut DataReport,
+) -> Result<Vec<T>> {
+    let mut val = Vec::new();
+    for (p, r) in pairs.iter().zip(loaded) {
+        match r {
+            Ok(v) => val.push(v),
+            Err(e) => report.skipped.push(Skipped {
+                path: p.underwater.clone(),
+                reason: format!("validation pair {} not usable: {e}", p.name),
+            }),
+        }
+    }
+    if val.is_empty() {
+        return Err(TrainError::NoPairs {
+            dir: dir.to_path_buf(),
+            reason: "no validation pair could be decoded".into(),
+        });
+    }
+    report.val_dir = Some((dir.to_path_buf(), val.len()));
+    Ok(val)
+}
+
 /// Finds the pairs of a data folder: images with the same file name in its underwater and clean
 /// folders. `max_pairs` keeps the first ones in name order. Fails when the folder has neither
 /// layout of [`PAIR_LAYOUTS`] or no pair.
@@ -407,24 +435,7 @@ pub fn load_data(
                 .par_iter()
                 .map(|p| load_val_pair(p, depth, opts.limits))
                 .collect();
-            let mut val = Vec::new();
-            for (p, r) in found.pairs.iter().zip(loaded) {
-                match r {
-                    Ok(v) => val.push(v),
-                    Err(e) => report.skipped.push(Skipped {
-                        path: p.underwater.clone(),
-                        reason: format!("validation pair {} not usable: {e}", p.name),
-                    }),
-                }
-            }
-            if val.is_empty() {
-                return Err(TrainError::NoPairs {
-                    dir: dir.to_path_buf(),
-                    reason: "no validation pair could be decoded".into(),
-                });
-            }
-            report.val_dir = Some((dir.to_path_buf(), val.len()));
-            val
+            keep_val_pairs(dir, &found.pairs, loaded, &mut report)?
         }
         None => Vec::new(),
     };
