@@ -322,6 +322,9 @@ pub struct EnhanceTrainSummary {
     pub last_weights: PathBuf,
     /// `enhancer.safetensors` of the `best` checkpoint, once there is one.
     pub best_weights: Option<PathBuf>,
+    /// Seconds of training behind the `last` checkpoint, summed over the sessions that made it
+    /// (work lost to a stop before a checkpoint is not counted).
+    pub train_secs: f64,
 }
 
 /// Loss values of one step (or their mean over a log window).
@@ -443,6 +446,7 @@ pub fn train(
         best: state.best,
         last_weights: ck_last.join(ENHANCER_FILE),
         best_weights: None,
+        train_secs: state.train_secs,
     };
     let mut window = LogWindow::default();
     let mut last_ck = Instant::now();
@@ -536,8 +540,8 @@ pub fn train(
         state.epoch
     };
     window.flush(&metrics, state.step, last_epoch, cfg.lr_at(last_epoch))?;
-    state.train_secs = base_secs + session_clock.elapsed().as_secs_f64();
     if (summary.session_steps > 0 || !opts.resume) && saved_at != Some(state.step) {
+        state.train_secs = base_secs + session_clock.elapsed().as_secs_f64();
         save_last(&ck_last, &model, &optim, cfg, &state)?;
         observer(EnhanceEvent::Checkpoint {
             step: state.step,
@@ -548,6 +552,7 @@ pub fn train(
     summary.best = state.best;
     let best = ck_best.join(ENHANCER_FILE);
     summary.best_weights = best.is_file().then_some(best);
+    summary.train_secs = state.train_secs;
     Ok(summary)
 }
 

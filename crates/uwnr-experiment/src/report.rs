@@ -57,7 +57,8 @@ pub struct Row {
     pub train_steps: Option<usize>,
     /// Seconds spent rendering the training set, summed over sessions.
     pub dataset_secs: f64,
-    /// Seconds spent training, summed over sessions.
+    /// Seconds spent training: the trainer's own count behind its last checkpoint, summed over
+    /// the sessions that made it.
     pub train_secs: f64,
     /// Seconds spent scoring, summed over sessions.
     pub eval_secs: f64,

@@ -31,8 +31,9 @@ pub const RESULTS_JSON: &str = "results.json";
 pub const EXAMPLES_PNG: &str = "examples.png";
 /// Height of the thumbnails of `examples.png`.
 pub const EXAMPLE_THUMB: usize = 160;
-/// Times the learning rate is multiplied by the config's `lr_decay` over a run (at each quarter:
-/// the released recipe decays in steps too, every `step_size` epochs).
+/// The learning rate is multiplied by the config's `lr_decay` every `ceil(epochs / (this + 1))`
+/// epochs, so at most this many times over a run (fewer when the epochs do not divide: 6 epochs
+/// decay at epochs 2 and 4). The released recipe decays in steps too, every `step_size` epochs.
 pub const LR_DECAYS_PER_RUN: usize = 3;
 
 /// A synthetic training set: the method that renders it.
@@ -204,7 +205,7 @@ fn check_settings(out: &Path, settings: &serde_json::Value) -> Result<()> {
 }
 
 /// The training config of one row: `budget` samples, i.e. `budget / batch` steps (the last epoch
-/// partial), the learning rate decayed [`LR_DECAYS_PER_RUN`] times over the run.
+/// partial), the learning rate decayed in steps of epochs (see [`LR_DECAYS_PER_RUN`]).
 fn row_config(spec: &DownstreamSpec, pairs: usize) -> EnhanceTrainConfig {
     let mut cfg = spec.train.clone();
     let batch = cfg.batch_size.max(1);
@@ -249,10 +250,11 @@ fn train_row(
     opts.resume = opts.run_dir.join("config.json").exists();
     opts.vgg19.clone_from(&spec.vgg19);
     opts.limits = spec.limits;
-    let start = Instant::now();
     let summary = train(&cfg, &opts, stop, &mut |e| observer(Event::Train(name, e)))
         .map_err(enhance_err(name))?;
-    timing.train_secs += start.elapsed().as_secs_f64();
+    // The trainer's own count: the time behind the checkpoint, over every session that added to
+    // it (a session stopped between checkpoints loses its last steps, and their time with them).
+    timing.train_secs = summary.train_secs;
     if summary.interrupted || !summary.finished {
         return Err(ExperimentError::Stopped);
     }

@@ -138,6 +138,7 @@ fn loss_falls_and_the_run_writes_its_files() {
     // Resuming a finished run does nothing and keeps its files.
     let (again, totals, _) = run(&cfg, &resume, None);
     assert!(again.finished && again.session_steps == 0 && totals.is_empty());
+    assert!((again.train_secs - s.train_secs).abs() < 1e-9);
     assert_eq!(again.best, s.best);
 }
 
@@ -163,6 +164,10 @@ fn a_resumed_run_follows_the_uninterrupted_one() {
     let (b2, t2, messages) = run(&cfg, &split, None);
     assert!(b2.finished && b2.step == 6 && b2.session_steps == 3);
     assert!(messages.iter().any(|m| m.contains("resuming at step 3")));
+    // The training time adds up over sessions and is the one the checkpoint records.
+    assert!(b1.train_secs > 0.0 && b2.train_secs > b1.train_secs);
+    let state = uwnr_train::checkpoint::read_state(&tmp.path().join("b/checkpoints/last")).unwrap();
+    assert!((state.train_secs - b2.train_secs).abs() < 1e-9);
 
     let resumed: Vec<(usize, f64)> = t1.into_iter().chain(t2).collect();
     assert_eq!(resumed, ta, "the resumed run's losses differ");
