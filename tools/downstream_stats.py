@@ -39,18 +39,23 @@ def psnr(a: np.ndarray, b: np.ndarray) -> float:
     return float("inf") if mse == 0 else 10 * np.log10(255.0**2 / mse)
 
 
+def look(u: np.ndarray) -> tuple[np.ndarray, float]:
+    """Mean colour and luminance RMS contrast of one image."""
+    return u.reshape(-1, 3).mean(0), float((u @ np.array([0.299, 0.587, 0.114])).std())
+
+
+def row(label: str, count: int, looks: list, psnr_cell: str) -> str:
+    m = np.mean([l[0] for l in looks], 0)
+    contrast = np.mean([l[1] for l in looks])
+    return (
+        f"| {label} | {count} | {m[0]:.0f} {m[1]:.0f} {m[2]:.0f} | {m[2] - m[0]:+.0f} | "
+        f"{m[1] - m[0]:+.0f} | {contrast:.1f} | {psnr_cell} |"
+    )
+
+
 def unpaired(folder: Path) -> str:
     files = sorted(p for p in folder.rglob("*") if p.suffix.lower() in EXTS)
-    means, contrast = [], []
-    for f in files:
-        u = load(f)
-        means.append(u.reshape(-1, 3).mean(0))
-        contrast.append((u @ np.array([0.299, 0.587, 0.114])).std())
-    m = np.mean(means, 0)
-    return (
-        f"| {folder.name} (unpaired) | {len(files)} | {m[0]:.0f} {m[1]:.0f} {m[2]:.0f} | "
-        f"{m[2] - m[0]:+.0f} | {m[1] - m[0]:+.0f} | {np.mean(contrast):.1f} | – |"
-    )
+    return row(f"{folder.name} (unpaired)", len(files), [look(load(f)) for f in files], "–")
 
 
 def stats(folder: Path) -> str:
@@ -59,7 +64,7 @@ def stats(folder: Path) -> str:
     under = {p.stem: p for p in (folder / "underwater").iterdir() if p.suffix.lower() in EXTS}
     clean = {p.stem: p for p in (folder / "clean").iterdir() if p.suffix.lower() in EXTS}
     names = sorted(set(under) & set(clean))
-    means, contrast, psnrs = [], [], []
+    looks, psnrs = [], []
     for n in names:
         u, c = load(under[n]), load(clean[n])
         if u.shape != c.shape:
@@ -67,15 +72,9 @@ def stats(folder: Path) -> str:
                 Image.fromarray(c.astype(np.uint8)).resize((u.shape[1], u.shape[0]), Image.BILINEAR),
                 dtype=np.float64,
             )
-        means.append(u.reshape(-1, 3).mean(0))
-        lum = u @ np.array([0.299, 0.587, 0.114])
-        contrast.append(lum.std())
+        looks.append(look(u))
         psnrs.append(psnr(u, c))
-    m = np.mean(means, 0)
-    return (
-        f"| {folder.name} | {len(names)} | {m[0]:.0f} {m[1]:.0f} {m[2]:.0f} | {m[2] - m[0]:+.0f} | "
-        f"{m[1] - m[0]:+.0f} | {np.mean(contrast):.1f} | {np.mean(psnrs):.2f} |"
-    )
+    return row(folder.name, len(names), looks, f"{np.mean(psnrs):.2f}")
 
 
 def main() -> None:
