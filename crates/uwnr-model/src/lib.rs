@@ -4,12 +4,14 @@
 //!
 //! The device is chosen once at the edge ([`device_from_name`]) and passed down.
 
+pub mod bundled;
 pub mod config;
 pub mod error;
 pub mod generator;
 pub mod infer;
 pub mod weights;
 
+pub use bundled::{BUNDLED_MODEL_NAME, bundled_weights};
 pub use burn::tensor::Device;
 pub use config::{GeneratorConfig, LightFieldMap, gmacs, param_count};
 pub use error::{ModelError, Result};

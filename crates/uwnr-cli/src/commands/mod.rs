@@ -50,17 +50,9 @@ pub fn device(arg: DeviceArg) -> Result<Device> {
     uwnr_model::device_from_name(name).with_context(|| format!("selecting device {name:?}"))
 }
 
-/// Weights of the model shipped inside this binary: `assets/model/uwnr-default.safetensors`,
-/// embedded at build time when it exists and the `bundled-model` feature is on (see `build.rs`).
+/// Weights of the model shipped inside this binary (`uwnr_model::bundled_weights`).
 pub fn bundled_weights() -> Option<&'static [u8]> {
-    #[cfg(uwnr_bundled_model)]
-    {
-        Some(include_bytes!(env!("UWNR_BUNDLED_MODEL")))
-    }
-    #[cfg(not(uwnr_bundled_model))]
-    {
-        None
-    }
+    uwnr_model::bundled_weights()
 }
 
 /// Loads the generator from `--weights`, or the bundled model.
@@ -77,7 +69,7 @@ pub fn load_model(
         Some(bytes) => {
             let (g, c, i) = uwnr_model::load_generator_from_bytes(bytes, device)
                 .context("loading the bundled model")?;
-            Ok((g, c, i, "bundled model".to_string()))
+            Ok((g, c, i, uwnr_model::BUNDLED_MODEL_NAME.to_string()))
         }
         None => bail!(
             "this build has no bundled model: pass --weights FILE (safetensors or the authors' checkpoint)"

@@ -163,15 +163,6 @@ fn reference_input(path: &Path, renderer: &Renderer, limits: &DecodeLimits) -> R
     })
 }
 
-/// A per-item seed: the run's seed mixed with the item's index (SplitMix64), so every image
-/// draws its own parameters and the batch is reproducible.
-fn item_seed(seed: u64, index: usize) -> u64 {
-    let mut z = seed ^ (index as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
-}
-
 #[allow(clippy::too_many_arguments)]
 fn render_one(
     clean_path: &Path,
@@ -212,7 +203,7 @@ fn render_one(
                 depth: &depth.map,
                 reference,
             };
-            uwnr_baselines::render(method, &input, item_seed(*seed, index))
+            uwnr_baselines::render(method, &input, uwnr_baselines::item_seed(*seed, index))
                 .with_context(|| format!("rendering with {}", method.name()))?
                 .image
         }

@@ -1,6 +1,6 @@
 //! Embeds the default model when it is in the source tree and the `bundled-model` feature is on:
 //! sets `cfg(uwnr_bundled_model)` and `UWNR_BUNDLED_MODEL` (the file's path) for
-//! `commands::bundled_weights`.
+//! `bundled::bundled_weights`.
 
 use std::path::PathBuf;
 

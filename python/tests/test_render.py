@@ -1,0 +1,208 @@
+"""Rendering: the same pixels as the command line, every method, dtypes, shapes and threads."""
+
+import subprocess
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+import pytest
+from PIL import Image
+
+import uwnr
+from conftest import gradient, water
+
+
+def run_cli(cli, *args):
+    proc = subprocess.run([str(cli), *map(str, args)], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    return proc
+
+
+def read_png(path):
+    return np.asarray(Image.open(path).convert("RGB"))
+
+
+@pytest.fixture(scope="module")
+def pngs(tmp_path_factory):
+    d = tmp_path_factory.mktemp("inputs")
+    clean, ref = gradient(72, 104), water(60, 80)
+    Image.fromarray(clean).save(d / "clean.png")
+    Image.fromarray(ref).save(d / "ref.png")
+    return d, clean, ref
+
+
+def test_uint8_arrays_render_as_the_cli_writes(cli, network, pngs, tmp_path):
+    d, clean, ref = pngs
+    out = tmp_path / "out.png"
+    run_cli(cli, "render", d / "clean.png", "--reference", d / "ref.png", "--output", out)
+    expected = read_png(out)
+    got = network.render(clean, ref)
+    assert got.dtype == np.uint8 and got.shape == expected.shape
+    assert np.array_equal(got, expected), np.abs(got.astype(int) - expected).max()
+
+
+def test_file_paths_render_as_the_cli_writes(cli, network, samples, tmp_path):
+    out = tmp_path / "statues.png"
+    clean, ref = samples / "clean-statues.jpg", samples / "ref-blue.jpg"
+    run_cli(cli, "render", clean, "--reference", ref, "--output", out)
+    got = network.render(clean, ref)
+    assert np.array_equal(got, read_png(out))
+
+
+@pytest.mark.parametrize("method", ["jerlov", "uisa", "seathru", "reinhard"])
+def test_baselines_render_as_the_cli_writes(cli, pngs, tmp_path, method):
+    d, clean, ref = pngs
+    out = tmp_path / f"{method}.png"
+    run_cli(
+        cli, "render", d / "clean.png", "--reference", d / "ref.png", "--output", out,
+        "--method", method, "--seed", 11,
+    )
+    got = uwnr.Renderer(method=method, seed=11).render(clean, ref)
+    assert np.array_equal(got, read_png(out))
+
+
+def test_a_batch_draws_item_i_as_the_cli_does(cli, pngs, tmp_path):
+    d, _, ref = pngs
+    cleans = [gradient(40, 56, seed=s) for s in range(3)]
+    src = tmp_path / "cleans"
+    src.mkdir()
+    for i, c in enumerate(cleans):
+        Image.fromarray(c).save(src / f"c{i}.png")
+    out = tmp_path / "out"
+    run_cli(cli, "render", src, "--reference", d / "ref.png", "--output", out,
+            "--method", "jerlov", "--seed", 5)
+    got = uwnr.Renderer(method="jerlov", seed=5).render_batch(cleans, ref)
+    for i, g in enumerate(got):
+        assert np.array_equal(g, read_png(out / f"c{i}.png")), i
+
+
+def test_lightfield_is_the_map_the_cli_writes(cli, pngs, tmp_path):
+    d, _, ref = pngs
+    for m in uwnr.LIGHT_FIELD_MAPS:
+        out = tmp_path / f"lf-{m}.png"
+        run_cli(cli, "lightfield", d / "ref.png", "--output", out, "--map", m)
+        lf = uwnr.lightfield(ref, map=m)
+        assert lf.shape == (256, 256, 3) and lf.dtype == np.float32
+        assert np.array_equal(np.floor(lf * 255 + 0.5).astype(np.uint8), read_png(out))
+
+
+def test_the_bundled_model_reproduces_the_golden_render(network, samples):
+    golden = samples.parent / "golden" / "statues-blue.png"
+    got = network.render(samples / "clean-statues.jpg", samples / "ref-blue.jpg")
+    diff = np.abs(got.astype(int) - read_png(golden))
+    assert diff.max() <= 3 and diff.mean() <= 0.1
+
+
+@pytest.mark.parametrize("method", uwnr.METHODS)
+def test_every_method_renders_a_changed_image_of_the_same_size(network, method):
+    clean, ref = gradient(48, 64), water(50, 50)
+    r = network if method == "uwnr" else uwnr.Renderer(method=method, seed=3)
+    out = r.render(clean, ref)
+    assert out.shape == clean.shape and out.dtype == np.uint8
+    assert np.abs(out.astype(float) - clean).mean() > 2.0
+    assert r.method == method
+
+
+def test_float_inputs_give_float_outputs_matching_uint8(network):
+    clean, ref = gradient(48, 48), water(48, 48)
+    u8 = network.render(clean, ref)
+    f32 = network.render(clean.astype(np.float32) / 255, ref)
+    assert f32.dtype == np.float32 and 0 <= f32.min() and f32.max() <= 1
+    assert np.array_equal(np.floor(f32 * 255 + 0.5).astype(np.uint8), u8)
+    f64 = network.render(clean.astype(np.float64) / 255, ref)
+    assert f64.dtype == np.float64
+    u16 = network.render(clean.astype(np.uint16) * 257, ref)
+    assert u16.dtype == np.uint16
+    assert np.abs(u16 / 257.0 - u8).max() <= 1.0
+
+
+def test_grey_and_rgba_inputs(network):
+    clean, ref = gradient(40, 40), water(40, 40)
+    grey = clean[:, :, 1]
+    out = network.render(grey, ref)
+    assert out.shape == (40, 40, 3)
+    assert np.array_equal(out, network.render(np.repeat(grey[:, :, None], 3, axis=2), ref))
+    rgba = np.concatenate([clean, np.full((40, 40, 1), 7, np.uint8)], axis=2)
+    assert np.array_equal(network.render(rgba, ref), network.render(clean, ref))
+
+
+@pytest.mark.parametrize("shape", [(17, 23), (33, 80), (1, 5)])
+def test_any_size_renders_at_its_own_size(network, shape):
+    clean = gradient(*shape)
+    out = network.render(clean, water(30, 30))
+    assert out.shape == clean.shape
+
+
+def test_pil_in_pil_out(network):
+    clean = Image.fromarray(gradient(40, 60))
+    out = network.render(clean, Image.fromarray(water(40, 40)))
+    assert isinstance(out, Image.Image) and out.size == clean.size and out.mode == "RGB"
+
+
+def test_a_reference_object_equals_the_array_it_holds(network):
+    clean, ref = gradient(40, 40), water(64, 48)
+    r = uwnr.Reference(ref)
+    assert (r.width, r.height) == (48, 64)
+    assert np.array_equal(network.render(clean, r), network.render(clean, ref))
+    assert np.array_equal(r.light_field("absolute"), uwnr.lightfield(ref))
+
+
+def test_depth_maps_are_used_and_resized(network):
+    clean, ref = gradient(40, 40), water(40, 40)
+    jerlov = uwnr.Renderer(method="jerlov", seed=1, water_type="3C")
+    near = jerlov.render(clean, None, np.zeros((40, 40), np.float32))
+    far = jerlov.render(clean, None, np.ones((40, 40), np.float32))
+    assert np.abs(near.astype(float) - far).mean() > 10
+    small = jerlov.render(clean, None, np.ones((10, 10), np.float32))
+    assert np.array_equal(small, far)
+    assert network.render(clean, ref, np.full((40, 40), 128, np.uint8)).shape == clean.shape
+    prior = uwnr.depth(clean)
+    assert prior.shape == (40, 40) and prior.dtype == np.float32
+    assert np.array_equal(jerlov.render(clean, None, prior), jerlov.render(clean))
+
+
+def test_seeds_draw_the_baselines_parameters():
+    clean = gradient(32, 32)
+    r = uwnr.Renderer(method="jerlov", seed=4)
+    a, b = r.render(clean), r.render(clean)
+    assert np.array_equal(a, b)
+    assert not np.array_equal(a, r.render(clean, seed=5))
+    assert not np.array_equal(a, r.render(clean, index=1))
+    assert np.array_equal(r.render(clean, index=1), uwnr.Renderer(method="jerlov", seed=4).render_batch([clean, clean])[1])
+
+
+def test_method_options_reach_the_baseline():
+    clean, ref = gradient(32, 32), water(32, 32)
+    full = uwnr.Renderer(method="reinhard").render(clean, ref)
+    mean_only = uwnr.Renderer(method="reinhard", match_std=False).render(clean, ref)
+    assert not np.array_equal(full, mean_only)
+    given = uwnr.Renderer(
+        method="seathru",
+        coefficients={"mode": "given", "beta_d": [0.4, 0.1, 0.05], "beta_b": [0.4, 0.1, 0.05],
+                      "b_inf": [0.05, 0.3, 0.4]},
+    )
+    assert given.render(clean).shape == clean.shape
+
+
+def test_render_batch_equals_single_renders(network):
+    cleans = [gradient(32, 40, seed=s) for s in range(4)]
+    refs = [water(32, 32, seed=s) for s in range(2)]
+    batch = network.render_batch(cleans, refs)
+    for i, out in enumerate(batch):
+        assert np.array_equal(out, network.render(cleans[i], refs[i % 2]))
+    assert network.render_batch([]) == []
+
+
+def test_one_renderer_shared_by_threads(network):
+    clean, ref = gradient(48, 48), water(48, 48)
+    expected = network.render(clean, ref)
+    with ThreadPoolExecutor(4) as pool:
+        outs = list(pool.map(lambda _: network.render(clean, ref), range(8)))
+    for out in outs:
+        assert np.array_equal(out, expected)
+
+
+def test_properties(network):
+    assert network.source == "bundled model"
+    assert network.light_field_map == "absolute"
+    assert uwnr.Renderer(method="jerlov").light_field_map is None
+    assert "jerlov" in repr(uwnr.Renderer(method="jerlov"))

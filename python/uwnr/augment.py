@@ -1,0 +1,194 @@
+"""Underwater augmentation for training loops: each call renders its input as an underwater
+image, with probability ``p``, in the style of a reference and with a method drawn at random.
+
+Randomness and seeds. Every draw (whether to apply, which method, which reference, the seed of the
+method's own random parameters) comes from the augmentation's own NumPy generator, never from the
+global NumPy, Python or torch generators. The generator is made in the process that first calls
+the augmentation, from:
+
+- ``SeedSequence([seed])`` in a process that is not a PyTorch DataLoader worker;
+- ``SeedSequence([seed, info.seed])`` in a DataLoader worker, where ``info =
+  torch.utils.data.get_worker_info()``. PyTorch gives each worker ``info.seed = base_seed +
+  worker_id`` and draws ``base_seed`` from torch's generator once per epoch (per DataLoader
+  iterator), so each worker draws its own stream, epochs differ, and a run is reproducible when
+  the program calls ``torch.manual_seed`` (or passes a ``generator`` to the DataLoader).
+
+A ``worker_init_fn`` is not needed. If you use one to set your own seeds, call
+:meth:`UnderwaterAugment.reseed` in it to choose the augmentation's stream explicitly (for
+example ``aug.reseed(1000 * epoch + worker_id)``); an explicit reseed wins over the rule above.
+
+Work done once per process and kept: the renderers (the network's weights load on first use of
+``"uwnr"``) and each reference's decoded image and light field map. The object pickles without
+them (DataLoader workers started with ``spawn`` rebuild them on first use) and is safe to fork.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from typing import Any, Dict, List, Optional, Sequence, Union
+
+import numpy as np
+
+from . import METHODS, Reference, Renderer
+
+#: File extensions read from a references folder (as the command line reads them).
+IMAGE_EXTENSIONS = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp")
+
+
+def _list_references(references: Any) -> List[Any]:
+    if isinstance(references, (str, os.PathLike)):
+        path = os.fspath(references)
+        if os.path.isdir(path):
+            files = sorted(
+                os.path.join(path, name)
+                for name in os.listdir(path)
+                if name.lower().endswith(IMAGE_EXTENSIONS)
+            )
+            if not files:
+                raise ValueError(f"references folder {path} holds no images")
+            return files
+        if os.path.isfile(path):
+            return [path]
+        raise FileNotFoundError(f"references {path} does not exist")
+    items = list(references)
+    if not items:
+        raise ValueError("references is empty")
+    return items
+
+
+def _torch_worker_seed() -> Optional[int]:
+    """The DataLoader worker's seed when called in a worker, else ``None``. torch is looked up
+    only if the program has imported it."""
+    torch = sys.modules.get("torch")
+    if torch is None:
+        return None
+    try:
+        info = torch.utils.data.get_worker_info()
+    except AttributeError:
+        return None
+    return None if info is None else int(info.seed)
+
+
+class UnderwaterAugment:
+    """An augmentation that renders its input underwater with probability ``p``.
+
+    :param references: a folder of real underwater images, one image path, or a sequence of
+        images (paths, arrays, PIL images, :class:`uwnr.Reference`).
+    :param methods: the methods to draw from, uniformly (``"uwnr"``, ``"jerlov"``, ``"uisa"``,
+        ``"seathru"``, ``"reinhard"``).
+    :param p: probability of rendering; otherwise the input is returned unchanged.
+    :param seed: the base of the augmentation's random stream (see the module docs).
+    :param weights: UWNR weights for ``"uwnr"`` (``None``: the bundled model).
+    :param method_options: per-method options, e.g. ``{"jerlov": {"water_type": "3C"}}``.
+    :param device: the network's compute device.
+
+    ``aug(x)`` takes and returns the same kind: a PIL image gives a PIL image, a NumPy array an
+    array of the same dtype, a torch CHW tensor a tensor of the same dtype and device.
+    ``aug(x, depth=d)`` uses a depth map (HxW in [0, 1], bright = far) instead of the built-in
+    prior.
+    """
+
+    def __init__(
+        self,
+        references: Union[str, os.PathLike, Sequence[Any]],
+        methods: Union[str, Sequence[str]] = ("uwnr",),
+        p: float = 0.5,
+        seed: int = 0,
+        weights: Optional[Union[str, os.PathLike]] = None,
+        method_options: Optional[Dict[str, Dict[str, Any]]] = None,
+        device: Optional[str] = None,
+    ) -> None:
+        methods = [methods] if isinstance(methods, str) else list(methods)
+        if not methods:
+            raise ValueError("methods is empty")
+        for m in methods:
+            if m not in METHODS:
+                raise ValueError(f"unknown method {m!r} (one of {', '.join(METHODS)})")
+        if not 0.0 <= float(p) <= 1.0:
+            raise ValueError(f"p must lie in [0, 1], got {p}")
+        if not isinstance(seed, (int, np.integer)) or seed < 0:
+            raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
+        method_options = dict(method_options or {})
+        for name in method_options:
+            if name not in methods:
+                raise ValueError(f"method_options names {name!r}, which is not in methods")
+        self.methods = methods
+        self.p = float(p)
+        self.seed = int(seed)
+        self.weights = None if weights is None else os.fspath(weights)
+        self.method_options = method_options
+        self.device = device
+        self._references = _list_references(references)
+        # Fail now, not in a worker, on options a method does not take or weights that do not
+        # load: build every renderer once here.
+        self._renderers: Dict[str, Renderer] = {m: self._make_renderer(m) for m in methods}
+        self._cache: Dict[int, Reference] = {}
+        self._explicit_seed: Optional[int] = None
+        self._rng: Optional[np.random.Generator] = None
+        self._rng_key: Optional[tuple] = None
+
+    def _make_renderer(self, method: str) -> Renderer:
+        options = self.method_options.get(method, {})
+        weights = self.weights if method == "uwnr" else None
+        return Renderer(weights=weights, method=method, device=self.device, **options)
+
+    def reseed(self, seed: int) -> None:
+        """Restarts the random stream from ``seed`` (in this process), e.g. in a DataLoader's
+        ``worker_init_fn``."""
+        self._explicit_seed = int(seed)
+        self._rng = None
+
+    def _generator(self) -> np.random.Generator:
+        if self._explicit_seed is not None:
+            key = ("explicit", os.getpid(), self._explicit_seed)
+            entropy = [self._explicit_seed]
+        else:
+            worker = _torch_worker_seed()
+            key = ("auto", os.getpid(), worker)
+            entropy = [self.seed] if worker is None else [self.seed, worker]
+        if self._rng is None or self._rng_key != key:
+            self._rng = np.random.Generator(np.random.PCG64(np.random.SeedSequence(entropy)))
+            self._rng_key = key
+        return self._rng
+
+    def _reference(self, i: int) -> Reference:
+        ref = self._cache.get(i)
+        if ref is None:
+            item = self._references[i]
+            ref = item if isinstance(item, Reference) else Reference(item)
+            self._cache[i] = ref
+        return ref
+
+    def __call__(self, x: Any, depth: Any = None) -> Any:
+        rng = self._generator()
+        # Every call takes the same four draws, so whether a call renders does not shift the
+        # stream of later calls.
+        apply = rng.random() < self.p
+        method = self.methods[int(rng.integers(len(self.methods)))]
+        ref_index = int(rng.integers(len(self._references)))
+        render_seed = int(rng.integers(0, 2**63))
+        if not apply:
+            return x
+        renderer = self._renderers.get(method)
+        if renderer is None:
+            renderer = self._renderers[method] = self._make_renderer(method)
+        reference = self._reference(ref_index) if method != "jerlov" else None
+        return renderer.render(x, reference, depth, seed=render_seed)
+
+    def __getstate__(self) -> Dict[str, Any]:
+        state = self.__dict__.copy()
+        state["_renderers"] = {}
+        state["_cache"] = {}
+        state["_rng"] = None
+        state["_rng_key"] = None
+        return state
+
+    def __setstate__(self, state: Dict[str, Any]) -> None:
+        self.__dict__.update(state)
+
+    def __repr__(self) -> str:
+        return (
+            f"uwnr.UnderwaterAugment(methods={self.methods}, p={self.p}, seed={self.seed}, "
+            f"references={len(self._references)})"
+        )
