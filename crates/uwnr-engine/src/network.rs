@@ -17,7 +17,7 @@ use crate::conv::Conv;
 use crate::error::{EngineError, Result};
 use crate::kernels::act::{LEAKY_RELU_SLOPE, sigmoid};
 use crate::kernels::{Act, Isa};
-use crate::tensor::{Feature, Planar};
+use crate::tensor::{Feature, Planar, Pool};
 use crate::weights::{ATTENTION_REDUCTION, ConvWeights, GeneratorWeights, LEVELS};
 use crate::winograd::Winograd;
 
@@ -112,9 +112,11 @@ pub enum Means<'a> {
 }
 
 /// The generator, packed for one instruction set. Immutable: share it between threads.
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 pub struct Generator {
     opts: EngineOptions,
+    /// Buffers of earlier passes, reused by the next one.
+    pool: std::sync::Mutex<Pool>,
     in_channels: usize,
     out_channels: usize,
     base_width: usize,
@@ -194,6 +196,7 @@ impl Generator {
         let o = &weights.out;
         Ok(Self {
             opts,
+            pool: std::sync::Mutex::new(Pool::default()),
             in_channels: weights.in_channels(),
             out_channels: weights.out_channels(),
             base_width: weights.base_width(),
@@ -280,26 +283,50 @@ impl Generator {
     /// - `x`: `in_channels x h x w` with `h`, `w` multiples of 16.
     pub fn forward(&self, x: &Planar, means: Means<'_>) -> Result<(Planar, Vec<Vec<f32>>)> {
         self.check(x, means)?;
-        let mut h = Feature::from_planar(x, 1);
-        let mut skips = Vec::with_capacity(LEVELS);
+        let mut pool = self.take_pool();
+        let mut skips: Vec<Feature> = Vec::with_capacity(LEVELS);
         let mut used = Vec::with_capacity(LEVELS);
+        let input = Feature::from_planar(x, 1);
         for (k, level) in self.levels.iter().enumerate() {
-            let (stem, attended) = level.attention_input(&h);
+            let h = skips.last().unwrap_or(&input);
+            let (stem, attended) = level.attention_input(h, &mut pool);
             let mean = match means {
-                Means::Own => pool(&attended),
+                Means::Own => pool_means(&attended),
                 Means::Given(m) => m[k].clone(),
             };
-            h = level.finish(stem, &attended, &mean);
+            skips.push(level.finish(stem, &attended, &mean));
+            pool.give(attended);
             used.push(mean);
-            skips.push(h.clone());
         }
-        skips.pop();
+        let mut h = skips.pop().unwrap_or(input);
         for up in &self.ups {
-            h = upsample(up, &h, skips.pop().as_ref());
+            let skip = skips.pop();
+            let next = upsample(up, &h, skip.as_ref(), &mut pool);
+            pool.give(std::mem::replace(&mut h, next));
+            if let Some(s) = skip {
+                pool.give(s);
+            }
         }
-        let mut y = Feature::zeros(h.h, h.w, self.out_channels, 0);
+        let mut y = Feature::zeros_in(&mut pool, h.h, h.w, self.out_channels, 0);
         self.out.run(&h, &mut y);
-        Ok((y.to_planar(), used))
+        let out = y.to_planar();
+        pool.give(h);
+        pool.give(y);
+        self.return_pool(pool);
+        Ok((out, used))
+    }
+
+    fn take_pool(&self) -> Pool {
+        self.pool
+            .lock()
+            .map(|mut p| std::mem::take(&mut *p))
+            .unwrap_or_default()
+    }
+
+    fn return_pool(&self, pool: Pool) {
+        if let Ok(mut p) = self.pool.lock() {
+            p.absorb(pool);
+        }
     }
 
     /// Runs the encoder up to block `k = known.len()` and returns that block's
@@ -317,13 +344,21 @@ impl Generator {
         let mut padded = known.to_vec();
         padded.extend(self.levels[k..].iter().map(|l| vec![0.0; l.c]));
         self.check(x, Means::Given(&padded))?;
+        let mut pool = self.take_pool();
         let mut h = Feature::from_planar(x, 1);
         for (level, l) in self.levels.iter().enumerate() {
-            let (stem, attended) = l.attention_input(&h);
+            let (stem, attended) = l.attention_input(&h, &mut pool);
             if level == k {
-                return Ok(attended.to_planar());
+                let out = attended.to_planar();
+                pool.give(attended);
+                pool.give(stem);
+                pool.give(h);
+                self.return_pool(pool);
+                return Ok(out);
             }
-            h = l.finish(stem, &attended, &known[level]);
+            let next = l.finish(stem, &attended, &known[level]);
+            pool.give(attended);
+            pool.give(std::mem::replace(&mut h, next));
         }
         Err(EngineError::Input(format!("block {k} not reached")))
     }
@@ -331,15 +366,22 @@ impl Generator {
 
 impl Level {
     /// The stem (the block's residual) and `SA(LeakyReLU(conk1 + conk3 + id))`.
-    fn attention_input(&self, x: &Feature) -> (Feature, Feature) {
+    fn attention_input(&self, x: &Feature, pool: &mut Pool) -> (Feature, Feature) {
         let (ho, wo) = self.stem.out_size(x.h, x.w);
-        let mut stem = Feature::zeros(ho, wo, self.c, 1);
+        let mut stem = Feature::zeros_in(pool, ho, wo, self.c, 1);
         self.stem.run(x, &mut stem);
-        let mut o = Feature::zeros(ho, wo, self.c, 0);
+        let mut o = Feature::zeros_in(pool, ho, wo, self.c, 0);
         self.body.run(&stem, &mut o);
+        self.spatial_attention(&mut o, pool);
+        (stem, o)
+    }
+
+    /// `o <- o * sigmoid(expand(LeakyReLU(reduce(o))))`, per pixel.
+    fn spatial_attention(&self, o: &mut Feature, pool: &mut Pool) {
+        let (ho, wo) = (o.h, o.w);
         let r = self.c / ATTENTION_REDUCTION;
-        let mut hidden = Feature::zeros(ho, wo, r, 0);
-        self.sa_reduce.run(&o, &mut hidden);
+        let mut hidden = Feature::zeros_in(pool, ho, wo, r, 0);
+        self.sa_reduce.run(o, &mut hidden);
         let (c, w2, b2) = (self.c, &self.sa_expand, self.sa_expand_bias);
         o.data
             .par_chunks_mut(wo * c)
@@ -353,7 +395,7 @@ impl Level {
                     }
                 }
             });
-        (stem, o)
+        pool.give(hidden);
     }
 
     /// `stem + t g` with the channel gate `g` computed from `mean`.
@@ -379,8 +421,136 @@ impl Level {
     }
 }
 
+/// One layer of the generator on random weights and input, for per-kernel benchmarks at the
+/// network's real shapes.
+#[derive(Debug)]
+pub struct LayerBench {
+    kind: LayerKind,
+    level: Level,
+    up: Option<Conv3>,
+    input: Feature,
+    output: Feature,
+    pool: Pool,
+}
+
+/// Which layer [`LayerBench`] runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LayerKind {
+    /// The encoder's stride-2 conv3x3 `cin -> c`.
+    Stride2,
+    /// The block's fused 3x3 (`conk3 + conk1 + id`), direct or Winograd per the options.
+    Block3x3,
+    /// The spatial-attention 1x1 `c -> c/4` with its per-pixel gate.
+    SpatialAttention,
+    /// Pooling, channel gate and residual add of channel attention.
+    ChannelAttention,
+    /// The decoder's conv3x3 `c -> 2c` with PixelShuffle.
+    Up,
+}
+
+impl LayerBench {
+    /// Encoder level `level` of a network of `base_width` at input size `size` (decoder level
+    /// at the same width for [`LayerKind::Up`]).
+    pub fn new(
+        kind: LayerKind,
+        opts: EngineOptions,
+        base_width: usize,
+        level: usize,
+        size: usize,
+    ) -> Result<Self> {
+        let weights = GeneratorWeights::random(7, 3, base_width, 1);
+        let g = Generator::with_options(&weights, opts)?;
+        let l = g
+            .levels
+            .get(level)
+            .cloned()
+            .ok_or_else(|| EngineError::Input(format!("no level {level}")))?;
+        let c = l.c;
+        let side = size >> (level + 1);
+        let cin = if level == 0 { 7 } else { c / 2 };
+        let (input, output, up) = match kind {
+            LayerKind::Stride2 => (
+                random_feature(2 * side, 2 * side, cin, 1),
+                Feature::zeros(side, side, c, 1),
+                None,
+            ),
+            LayerKind::Block3x3 => (
+                random_feature(side, side, c, 1),
+                Feature::zeros(side, side, c, 0),
+                None,
+            ),
+            LayerKind::SpatialAttention | LayerKind::ChannelAttention => (
+                random_feature(side, side, c, 1),
+                random_feature(side, side, c, 0),
+                None,
+            ),
+            LayerKind::Up => {
+                let up = g.ups.get(LEVELS - 1 - level).cloned();
+                (
+                    random_feature(side, side, c, 1),
+                    Feature::zeros(side, side, 2 * c, 0),
+                    up,
+                )
+            }
+        };
+        Ok(Self {
+            kind,
+            level: l,
+            up,
+            input,
+            output,
+            pool: Pool::default(),
+        })
+    }
+
+    /// Multiply-accumulates of one run (0 for the pooling and gating passes).
+    #[must_use]
+    pub fn macs(&self) -> u64 {
+        let px = (self.output.h * self.output.w) as u64;
+        let c = self.level.c as u64;
+        match self.kind {
+            LayerKind::Stride2 => px * c * self.input.c as u64 * 9,
+            LayerKind::Block3x3 => px * c * c * 9,
+            LayerKind::SpatialAttention => px * c * (c / 4) + px * (c / 4),
+            LayerKind::ChannelAttention => 0,
+            LayerKind::Up => px * c * 2 * c * 9,
+        }
+    }
+
+    /// Runs the layer once.
+    pub fn run(&mut self) {
+        match self.kind {
+            LayerKind::Stride2 => self.level.stem.run(&self.input, &mut self.output),
+            LayerKind::Block3x3 => self.level.body.run(&self.input, &mut self.output),
+            LayerKind::SpatialAttention => self
+                .level
+                .spatial_attention(&mut self.output, &mut self.pool),
+            LayerKind::ChannelAttention => {
+                let mean = pool_means(&self.output);
+                let stem = std::mem::replace(&mut self.input, Feature::zeros(0, 0, 0, 0));
+                self.input = self.level.finish(stem, &self.output, &mean);
+            }
+            LayerKind::Up => {
+                if let Some(up) = &self.up {
+                    up.run(&self.input, &mut self.output);
+                }
+            }
+        }
+    }
+}
+
+fn random_feature(h: usize, w: usize, c: usize, pad: usize) -> Feature {
+    let mut f = Feature::zeros(h, w, c, pad);
+    for y in 0..h {
+        for (i, v) in f.row_mut(y).iter_mut().enumerate() {
+            *v = ((i * 7919 + y * 104_729) % 1000) as f32 / 1000.0 - 0.5;
+        }
+    }
+    f
+}
+
 /// Mean over all pixels of each channel (f64 sums).
-fn pool(t: &Feature) -> Vec<f32> {
+fn pool_means(t: &Feature) -> Vec<f32> {
     let c = t.c;
     let sums = (0..t.h)
         .into_par_iter()
@@ -453,12 +623,12 @@ fn shuffle_order(cout: usize) -> Vec<usize> {
 }
 
 /// `PixelShuffle(ELU(conv(x))) + skip` into a padded map.
-fn upsample(conv: &Conv3, x: &Feature, skip: Option<&Feature>) -> Feature {
+fn upsample(conv: &Conv3, x: &Feature, skip: Option<&Feature>, pool: &mut Pool) -> Feature {
     let cout = 2 * x.c;
-    let mut tmp = Feature::zeros(x.h, x.w, cout, 0);
+    let mut tmp = Feature::zeros_in(pool, x.h, x.w, cout, 0);
     conv.run(x, &mut tmp);
     let c = cout / (UPSCALE * UPSCALE);
-    let mut out = Feature::zeros(x.h * UPSCALE, x.w * UPSCALE, c, 1);
+    let mut out = Feature::zeros_in(pool, x.h * UPSCALE, x.w * UPSCALE, c, 1);
     let stride = out.row_stride();
     let (pad, wo) = (out.pad, out.w);
     out.data
@@ -483,5 +653,6 @@ fn upsample(conv: &Conv3, x: &Feature, skip: Option<&Feature>) -> Feature {
                 }
             }
         });
+    pool.give(tmp);
     out
 }

@@ -50,6 +50,17 @@ impl Feature {
         }
     }
 
+    /// A zero map whose storage comes from `pool` (no page faults once the pool is warm).
+    pub fn zeros_in(pool: &mut Pool, h: usize, w: usize, c: usize, pad: usize) -> Self {
+        Self {
+            h,
+            w,
+            c,
+            pad,
+            data: pool.take((h + 2 * pad) * (w + 2 * pad) * c),
+        }
+    }
+
     /// Floats between vertically adjacent pixels.
     pub fn row_stride(&self) -> usize {
         (self.w + 2 * self.pad) * self.c
@@ -101,6 +112,49 @@ impl Feature {
             }
         }
         p
+    }
+}
+
+/// Buffers a [`Pool`] keeps at most.
+const MAX_POOLED: usize = 16;
+
+/// Buffers kept between forward passes, so that a render reuses memory it has already
+/// touched instead of faulting in fresh pages for every feature map.
+#[derive(Debug, Default)]
+pub(crate) struct Pool {
+    free: Vec<Vec<f32>>,
+}
+
+impl Pool {
+    /// A zeroed buffer of `n` floats, from the smallest free buffer that holds it.
+    pub fn take(&mut self, n: usize) -> Vec<f32> {
+        let best = self
+            .free
+            .iter()
+            .enumerate()
+            .filter(|(_, v)| v.capacity() >= n)
+            .min_by_key(|(_, v)| v.capacity())
+            .map(|(i, _)| i);
+        let mut v = match best {
+            Some(i) => self.free.swap_remove(i),
+            None => Vec::with_capacity(n),
+        };
+        v.clear();
+        v.resize(n, 0.0);
+        v
+    }
+
+    /// Returns a feature map's storage.
+    pub fn give(&mut self, f: Feature) {
+        self.free.push(f.data);
+    }
+
+    /// Moves the buffers of `other` into this pool, keeping the [`MAX_POOLED`] largest (a
+    /// pass holds fewer at once; the cap stops passes at many sizes from hoarding memory).
+    pub fn absorb(&mut self, other: Pool) {
+        self.free.extend(other.free);
+        self.free.sort_by_key(|v| std::cmp::Reverse(v.capacity()));
+        self.free.truncate(MAX_POOLED);
     }
 }
 

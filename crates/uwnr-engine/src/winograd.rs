@@ -70,24 +70,36 @@ impl Winograd {
         let panels = cout.div_ceil(nr);
         let mut u = vec![0.0f32; E * panels * cin * nr];
         let mut packed_bias = vec![0.0; cout];
-        for n in 0..cout {
-            let co = order.map_or(n, |o| o[n]);
-            packed_bias[n] = bias[co];
-            let (p, col) = (n / nr, n % nr);
+        for (n, b) in packed_bias.iter_mut().enumerate() {
+            *b = bias[order.map_or(n, |o| o[n])];
+        }
+        // One (panel, input channel) at a time, so each product's NR columns are written as
+        // one contiguous run.
+        let mut run = vec![0.0f32; E * nr];
+        for p in 0..panels {
             for ci in 0..cin {
-                let g = &weight[(co * cin + ci) * 9..(co * cin + ci + 1) * 9];
-                // G g G^T.
-                let mut gg = [[0.0f64; 3]; T];
-                for (i, row) in gg.iter_mut().enumerate() {
-                    for (kx, v) in row.iter_mut().enumerate() {
-                        *v = (0..3).map(|ky| G[i][ky] * f64::from(g[ky * 3 + kx])).sum();
+                run.fill(0.0);
+                for col in 0..nr.min(cout - p * nr) {
+                    let n = p * nr + col;
+                    let co = order.map_or(n, |o| o[n]);
+                    let g = &weight[(co * cin + ci) * 9..(co * cin + ci + 1) * 9];
+                    // G g G^T.
+                    let mut gg = [[0.0f64; 3]; T];
+                    for (i, row) in gg.iter_mut().enumerate() {
+                        for (kx, v) in row.iter_mut().enumerate() {
+                            *v = (0..3).map(|ky| G[i][ky] * f64::from(g[ky * 3 + kx])).sum();
+                        }
+                    }
+                    for i in 0..T {
+                        for j in 0..T {
+                            let v: f64 = (0..3).map(|kx| gg[i][kx] * G[j][kx]).sum();
+                            run[(i * T + j) * nr + col] = v as f32;
+                        }
                     }
                 }
-                for i in 0..T {
-                    for j in 0..T {
-                        let v: f64 = (0..3).map(|kx| gg[i][kx] * G[j][kx]).sum();
-                        u[((i * T + j) * panels + p) * cin * nr + ci * nr + col] = v as f32;
-                    }
+                for e in 0..E {
+                    let at = (e * panels + p) * cin * nr + ci * nr;
+                    u[at..at + nr].copy_from_slice(&run[e * nr..(e + 1) * nr]);
                 }
             }
         }
@@ -518,10 +530,10 @@ mod tests {
                 conv.run(&src, &mut dst);
                 let got = dst.to_planar();
                 let mut diff = 0.0f32;
-                for n in 0..cout {
+                for (n, &o) in order.iter().enumerate() {
                     let plane = h * w;
                     let g = &got.data[n * plane..(n + 1) * plane];
-                    let e = &want.data[order[n] * plane..(order[n] + 1) * plane];
+                    let e = &want.data[o * plane..(o + 1) * plane];
                     diff = diff.max(reference::max_abs_diff(g, e));
                 }
                 assert!(diff < 2e-5, "{isa:?} case {i}: {diff}");
