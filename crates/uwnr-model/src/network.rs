@@ -56,7 +56,7 @@ pub fn backend_from_name(name: &str) -> Result<Backend> {
 enum Imp {
     Engine(Arc<uwnr_engine::Generator>),
     Burn {
-        generator: Generator,
+        generator: Box<Generator>,
         device: burn::tensor::Device,
     },
 }
@@ -99,7 +99,7 @@ impl Network {
                 let (generator, ignored) = generator_from_tensors(config, tensors, device)?;
                 (
                     Imp::Burn {
-                        generator,
+                        generator: Box::new(generator),
                         device: device.clone(),
                     },
                     ignored,
@@ -135,7 +135,7 @@ impl Network {
             Backend::Burn(device) => Ok(Self {
                 config: *config,
                 imp: Imp::Burn {
-                    generator: generator.clone(),
+                    generator: Box::new(generator.clone()),
                     device: device.clone(),
                 },
             }),
