@@ -117,6 +117,8 @@ impl Feature {
 
 /// Buffers a [`Pool`] keeps at most.
 const MAX_POOLED: usize = 16;
+/// Bytes a [`Pool`] keeps at most.
+const MAX_POOLED_BYTES: usize = 128 << 20;
 
 /// Buffers kept between forward passes, so that a render reuses memory it has already
 /// touched instead of faulting in fresh pages for every feature map.
@@ -149,11 +151,21 @@ impl Pool {
         self.free.push(f.data);
     }
 
-    /// Moves the buffers of `other` into this pool, keeping the [`MAX_POOLED`] largest (a
-    /// pass holds fewer at once; the cap stops passes at many sizes from hoarding memory).
+    /// Moves the buffers of `other` into this pool, keeping at most [`MAX_POOLED`] buffers
+    /// and [`MAX_POOLED_BYTES`], largest first: a 256x256 pass keeps all of its buffers, a
+    /// 1024x1024 tile keeps part of them, so memory stays bounded by the tile size.
     pub fn absorb(&mut self, other: Pool) {
         self.free.extend(other.free);
         self.free.sort_by_key(|v| std::cmp::Reverse(v.capacity()));
+        let mut bytes = 0;
+        self.free.retain(|v| {
+            let b = v.capacity() * std::mem::size_of::<f32>();
+            let keep = bytes + b <= MAX_POOLED_BYTES;
+            if keep {
+                bytes += b;
+            }
+            keep
+        });
         self.free.truncate(MAX_POOLED);
     }
 }
