@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Throughput of `uwnr dataset` with the full-width network (the bundled model, or WEIGHTS=FILE of
-# the same architecture: speed does not depend on the weights' values), default flex device:
+# the same architecture: speed does not depend on the weights' values), on DEVICE (default
+# engine; DEVICE=flex for burn's backend):
 #   1. 24 in-air photos at --size 256x256, K = 1;
 #   2. the 11 Set14 photos at their native sizes (about 0.1-0.25 MP);
 #   3. 6 SUN-Hays photos at their native sizes (1024 px on the long side, about 0.7 MP);
@@ -14,6 +15,7 @@ WORK=$(mktemp -d)
 trap 'rm -rf "$WORK"' EXIT
 W=()
 if [ -n "${WEIGHTS:-}" ]; then W=(--weights "$WEIGHTS"); fi
+W+=(--device "${DEVICE:-engine}")
 
 mkdir -p "$WORK/small" "$WORK/set14" "$WORK/large"
 ls "$DATA"/inair/cbsd68/*.jpg | head -12 | xargs -I{} cp {} "$WORK/small/"

@@ -49,6 +49,8 @@ def main():
             f"forward {size}x{size}: median {statistics.median(times):.0f} ms "
             f"(runs {', '.join(f'{t:.0f}' for t in times)}), peak RSS so far {peak_mib:.0f} MiB"
         )
+        # One machine-readable line per size for tools/bench_inference.sh.
+        print(f"RESULT pytorch {size} {statistics.median(times):.2f}")
 
 
 if __name__ == "__main__":

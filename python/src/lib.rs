@@ -431,7 +431,7 @@ fn network(
     device: &str,
     options: RenderOptions,
 ) -> Result<(DatasetRenderer, LightFieldMap, String), Failure> {
-    let device = uwnr_model::device_from_name(device).map_err(value)?;
+    let backend = uwnr_model::backend_from_name(device).map_err(value)?;
     let (bytes, source): (std::borrow::Cow<'static, [u8]>, String) = match &weights {
         Some(path) => (
             std::fs::read(path)
@@ -452,11 +452,10 @@ fn network(
             uwnr_model::BUNDLED_MODEL_NAME.to_string(),
         ),
     };
-    let (generator, config, _info) = uwnr_model::load_generator_from_bytes(&bytes, &device)
+    let (network, _info) = uwnr_model::Network::load_from_bytes(&bytes, &backend)
         .map_err(|e| model(format!("loading weights {source}: {e}")))?;
-    let map = config.light_field;
-    let renderer =
-        DatasetRenderer::network(generator, config, options, device, source.clone(), &bytes);
+    let map = network.config().light_field;
+    let renderer = DatasetRenderer::network(network, options, source.clone(), &bytes);
     Ok((renderer, map, source))
 }
 
@@ -701,6 +700,6 @@ fn _uwnr(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(load_rgb, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add("BUNDLED_MODEL", uwnr_model::bundled_weights().is_some())?;
-    m.add("DEVICES", uwnr_model::device_names().to_vec())?;
+    m.add("DEVICES", uwnr_model::backend_names())?;
     Ok(())
 }

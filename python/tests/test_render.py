@@ -206,3 +206,11 @@ def test_properties(network):
     assert network.light_field_map == "absolute"
     assert uwnr.Renderer(method="jerlov").light_field_map is None
     assert "jerlov" in repr(uwnr.Renderer(method="jerlov"))
+
+
+def test_the_engine_and_burn_render_alike(network):
+    assert uwnr.DEVICES[0] == "engine"
+    clean, ref = gradient(40, 56), water(40, 40)
+    burn = uwnr.Renderer(device="flex")
+    diff = np.abs(network.render(clean, ref).astype(int) - burn.render(clean, ref))
+    assert diff.max() <= 1

@@ -43,7 +43,8 @@ __version__: str = _uwnr.__version__
 METHODS = ("uwnr", "jerlov", "uisa", "seathru", "reinhard")
 #: The light field normalisations: the paper's min-max map, or the fixed-range map.
 LIGHT_FIELD_MAPS = ("paper", "absolute")
-#: Devices of this build for the network ("flex": burn's CPU backend).
+#: What can run the network in this build, the default first: "engine" (uwnr's own CPU
+#: inference engine), "flex" (burn's CPU backend), "tch" in builds with libtorch.
 DEVICES = tuple(_uwnr.DEVICES)
 #: Whether this build carries the bundled model (``Renderer()`` with no weights).
 HAS_BUNDLED_MODEL: bool = bool(_uwnr.BUNDLED_MODEL)
@@ -134,7 +135,8 @@ class Renderer:
         ``"seathru"``, ``"reinhard"``.
     :param seed: the run seed; a render's random parameters (baselines) come from it and the
         item's index, as in ``uwnr render``.
-    :param device: compute device of the network (``"flex"``; ``"tch"`` in builds with libtorch).
+    :param device: what runs the network: ``"engine"`` (default, uwnr's CPU inference engine, the
+        command line's default too), ``"flex"`` (burn), ``"tch"`` in builds with libtorch.
     :param max_whole_pixels, tile, overlap: tiling of large images, as on the command line.
     :param method_options: a baseline's parameters by name, as in its JSON config, e.g.
         ``water_type="3C"`` for Jerlov, ``space="lab"`` and ``match_std=False`` for Reinhard,

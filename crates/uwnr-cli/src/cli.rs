@@ -54,6 +54,9 @@ pub enum Pairing {
 /// Compute device for the neural network.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum DeviceArg {
+    /// The dedicated CPU inference engine (uwnr-engine) for rendering; commands that train
+    /// run burn's flex backend.
+    Engine,
     /// Pure-Rust CPU backend (burn flex), always available.
     Flex,
     /// libtorch backend (needs a build with `--features tch`).
@@ -88,7 +91,7 @@ pub struct ModelOpts {
     #[arg(long, value_name = "FILE")]
     pub weights: Option<PathBuf>,
     /// Compute device.
-    #[arg(long, value_enum, default_value_t = DeviceArg::Flex)]
+    #[arg(long, value_enum, default_value_t = DeviceArg::Engine)]
     pub device: DeviceArg,
     /// Images with more pixels than this are rendered in overlapping tiles (memory stays bounded).
     #[arg(long, value_name = "PIXELS", default_value_t = 1_048_576)]

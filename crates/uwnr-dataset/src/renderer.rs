@@ -6,17 +6,16 @@ use std::sync::Mutex;
 use serde_json::json;
 use uwnr_baselines::{Method, RenderInput, SeathruCoefficients};
 use uwnr_core::Image;
-use uwnr_model::{Device, Generator, GeneratorConfig, RenderOptions};
+use uwnr_model::{GeneratorConfig, Network as Generator, RenderOptions};
 
 use crate::error::{DatasetError, Result};
 
 /// The UWNR generator with what it runs on.
 pub struct Network {
-    /// Cloned once per worker thread.
+    /// Cloned once per worker thread (the engine's weights are shared, burn's module copied).
     generator: Mutex<Generator>,
     config: GeneratorConfig,
     options: RenderOptions,
-    device: Device,
     /// Where the weights came from (a path, or "bundled model").
     weights: String,
     /// A fingerprint of the weight bytes, so a resumed run cannot switch models silently.
@@ -37,17 +36,14 @@ impl Renderer {
     #[must_use]
     pub fn network(
         generator: Generator,
-        config: GeneratorConfig,
         options: RenderOptions,
-        device: Device,
         weights: String,
         weight_bytes: &[u8],
     ) -> Self {
         Self::Network(Box::new(Network {
+            config: *generator.config(),
             generator: Mutex::new(generator),
-            config,
             options,
-            device,
             weights,
             fingerprint: format!("fnv1a64:{:016x}", fnv1a64(weight_bytes)),
         }))
@@ -168,9 +164,9 @@ impl Worker<'_> {
                     clean.height(),
                 )
                 .map_err(|e| e.to_string())?;
-                let out =
-                    uwnr_model::render(generator, clean, depth, &lf, &net.options, &net.device)
-                        .map_err(|e| format!("rendering: {e}"))?;
+                let out = generator
+                    .render(clean, depth, &lf, &net.options)
+                    .map_err(|e| format!("rendering: {e}"))?;
                 Ok((out, json!({ "weights": net.weights })))
             }
             Self::Baseline(method) => {

@@ -76,6 +76,9 @@ pub enum ModelError {
     /// The tensor backend failed while reading data back.
     #[error("tensor backend: {0}")]
     Backend(String),
+    /// The inference engine rejected the weights or the input.
+    #[error("engine: {0}")]
+    Engine(#[from] uwnr_engine::EngineError),
     /// An error from uwnr-core (image handling).
     #[error(transparent)]
     Core(#[from] uwnr_core::CoreError),

@@ -22,11 +22,111 @@
 
 use burn::tensor::{Device, Tensor, TensorData};
 use uwnr_core::Image;
+use uwnr_engine::Planar;
 
 use crate::config::{LEVELS, SIZE_MULTIPLE};
 use crate::error::{ModelError, Result};
 use crate::generator::Generator;
 use crate::weights::read_tensor;
+
+/// What tiled rendering needs of a generator implementation (burn's module or the engine),
+/// on planar `[c][h][w]` tensors of one image.
+pub(crate) trait Forward {
+    /// Input and output channels.
+    fn channels(&self) -> (usize, usize);
+    /// The released forward pass.
+    fn forward(&self, x: Planar) -> Result<Planar>;
+    /// The forward pass with every block's channel attention driven by `means`.
+    fn forward_with_means(&self, x: Planar, means: &[Vec<f32>]) -> Result<Planar>;
+    /// Block `known.len()`'s channel-attention input, earlier blocks gated with `known`.
+    fn attention_input(&self, x: Planar, known: &[Vec<f32>]) -> Result<Planar>;
+}
+
+/// Burn's generator on a device.
+pub(crate) struct BurnForward<'a> {
+    pub generator: &'a Generator,
+    pub device: &'a Device,
+}
+
+impl BurnForward<'_> {
+    fn tensor(&self, x: Planar) -> Tensor<4> {
+        Tensor::from_data(
+            TensorData::new(x.data, [1, x.channels, x.height, x.width]),
+            self.device,
+        )
+    }
+
+    fn means(&self, means: &[Vec<f32>]) -> Vec<Tensor<4>> {
+        means
+            .iter()
+            .map(|m| Tensor::from_data(TensorData::new(m.clone(), [1, m.len(), 1, 1]), self.device))
+            .collect()
+    }
+}
+
+fn planar(t: Tensor<4>) -> Result<Planar> {
+    let t = read_tensor(t)?;
+    match t.shape[..] {
+        [1, channels, height, width] => Ok(Planar {
+            channels,
+            height,
+            width,
+            data: t.data,
+        }),
+        _ => Err(ModelError::Backend(format!(
+            "expected a [1, c, h, w] tensor, got {:?}",
+            t.shape
+        ))),
+    }
+}
+
+impl Forward for BurnForward<'_> {
+    fn channels(&self) -> (usize, usize) {
+        let [_, cin, _, _] = self.generator.in_conv_down1.conv.weight.dims();
+        let [cout, _, _, _] = self.generator.out.weight.dims();
+        (cin, cout)
+    }
+
+    fn forward(&self, x: Planar) -> Result<Planar> {
+        planar(self.generator.forward(self.tensor(x)))
+    }
+
+    fn forward_with_means(&self, x: Planar, means: &[Vec<f32>]) -> Result<Planar> {
+        let means: [Tensor<4>; LEVELS] = self
+            .means(means)
+            .try_into()
+            .map_err(|_| ModelError::InvalidOptions("channel means incomplete".into()))?;
+        planar(
+            self.generator
+                .forward_with_channel_means(self.tensor(x), &means),
+        )
+    }
+
+    fn attention_input(&self, x: Planar, known: &[Vec<f32>]) -> Result<Planar> {
+        planar(
+            self.generator
+                .channel_attention_input(self.tensor(x), &self.means(known))?,
+        )
+    }
+}
+
+impl Forward for uwnr_engine::Generator {
+    fn channels(&self) -> (usize, usize) {
+        (self.in_channels(), self.out_channels())
+    }
+
+    fn forward(&self, x: Planar) -> Result<Planar> {
+        Ok(uwnr_engine::Generator::forward(self, &x, uwnr_engine::Means::Own)?.0)
+    }
+
+    fn forward_with_means(&self, x: Planar, means: &[Vec<f32>]) -> Result<Planar> {
+        Ok(uwnr_engine::Generator::forward(self, &x, uwnr_engine::Means::Given(means))?.0)
+    }
+
+    fn attention_input(&self, x: Planar, known: &[Vec<f32>]) -> Result<Planar> {
+        Ok(self.channel_attention_input(&x, known)?)
+    }
+}
 
 /// Channels of the clean RGB image (input channels 0..3).
 const CLEAN_CHANNELS: usize = 3;
@@ -107,6 +207,9 @@ impl RenderOptions {
 /// Renders `clean` (3 channels) as an underwater image in the style of `light_field`
 /// (3 channels, the light-field map of a real underwater image), using `depth` (1 channel).
 /// All three must have the same size; the output has it too, with values in [0, 1].
+///
+/// This runs burn's module on `device`; [`crate::Network::render`] runs the engine or burn,
+/// whichever the network was loaded for.
 pub fn render(
     generator: &Generator,
     clean: &Image,
@@ -114,6 +217,23 @@ pub fn render(
     light_field: &Image,
     opts: &RenderOptions,
     device: &Device,
+) -> Result<Image> {
+    render_with(
+        &BurnForward { generator, device },
+        clean,
+        depth,
+        light_field,
+        opts,
+    )
+}
+
+/// [`render`] on any implementation of the generator.
+pub(crate) fn render_with(
+    generator: &dyn Forward,
+    clean: &Image,
+    depth: &Image,
+    light_field: &Image,
+    opts: &RenderOptions,
 ) -> Result<Image> {
     opts.validate()?;
     check_inputs(generator, clean, depth, light_field)?;
@@ -127,11 +247,11 @@ pub fn render(
             h: hp,
             w: wp,
         };
-        let x = input_tensor(&sources, region, device);
-        let y = read_tensor(generator.forward(x))?.data; // [1, 3, hp, wp]
+        let x = input_tensor(&sources, region);
+        let y = generator.forward(x)?.data; // [3, hp, wp]
         crop_to_image(&y, hp, wp, h, w)?
     } else {
-        render_tiled(generator, &sources, (hp, wp), (h, w), opts, device)?
+        render_tiled(generator, &sources, (hp, wp), (h, w), opts)?
     };
     let mut out = out;
     out.clamp01();
@@ -142,8 +262,8 @@ fn padded(n: usize) -> usize {
     n.div_ceil(SIZE_MULTIPLE) * SIZE_MULTIPLE
 }
 
-fn check_inputs(generator: &Generator, clean: &Image, depth: &Image, lf: &Image) -> Result<()> {
-    let [_, cin, _, _] = generator.in_conv_down1.conv.weight.dims();
+fn check_inputs(generator: &dyn Forward, clean: &Image, depth: &Image, lf: &Image) -> Result<()> {
+    let (cin, cout) = generator.channels();
     if cin != INPUT_CHANNELS {
         return Err(ModelError::Channels {
             what: "generator input",
@@ -151,7 +271,6 @@ fn check_inputs(generator: &Generator, clean: &Image, depth: &Image, lf: &Image)
             got: cin,
         });
     }
-    let [cout, _, _, _] = generator.out.weight.dims();
     if cout != OUTPUT_CHANNELS {
         return Err(ModelError::Channels {
             what: "generator output",
@@ -211,8 +330,8 @@ struct Rect {
 }
 
 /// The network input over `region` of the padded image: clean, depth and light field
-/// stacked, `[1, 7, region.h, region.w]`.
-fn input_tensor(sources: &[&Image; 3], region: Rect, device: &Device) -> Tensor<4> {
+/// stacked, `[7, region.h, region.w]`.
+fn input_tensor(sources: &[&Image; 3], region: Rect) -> Planar {
     let mut data = Vec::with_capacity(INPUT_CHANNELS * region.h * region.w);
     for im in sources {
         let (w, h) = im.size();
@@ -227,13 +346,15 @@ fn input_tensor(sources: &[&Image; 3], region: Rect, device: &Device) -> Tensor<
             }
         }
     }
-    Tensor::from_data(
-        TensorData::new(data, [1, INPUT_CHANNELS, region.h, region.w]),
-        device,
-    )
+    Planar {
+        channels: INPUT_CHANNELS,
+        height: region.h,
+        width: region.w,
+        data,
+    }
 }
 
-/// The top-left `h x w` of a `[1, 3, hp, wp]` output as an image.
+/// The top-left `h x w` of a `[3, hp, wp]` output as an image.
 fn crop_to_image(y: &[f32], hp: usize, wp: usize, h: usize, w: usize) -> Result<Image> {
     let mut data = Vec::with_capacity(OUTPUT_CHANNELS * h * w);
     for c in 0..OUTPUT_CHANNELS {
@@ -300,12 +421,11 @@ fn axis_weights(
 }
 
 fn render_tiled(
-    generator: &Generator,
+    generator: &dyn Forward,
     sources: &[&Image; 3],
     (hp, wp): (usize, usize),
     (h, w): (usize, usize),
     opts: &RenderOptions,
-    device: &Device,
 ) -> Result<Image> {
     let half = opts.overlap / 2;
     let max_core = opts.tile - opts.overlap;
@@ -315,7 +435,7 @@ fn render_tiled(
 
     // Passes 0..LEVELS: the global mean of each block's channel-attention input.
     let enc_margin = half.min(ENCODER_MARGIN);
-    let mut means: Vec<Tensor<4>> = Vec::with_capacity(LEVELS);
+    let mut means: Vec<Vec<f32>> = Vec::with_capacity(LEVELS);
     for level in 0..LEVELS {
         let scale = 1 << (level + 1);
         let mut sum: Vec<f64> = Vec::new();
@@ -328,37 +448,27 @@ fn render_tiled(
                 h: y1 - y0,
                 w: x1 - x0,
             };
-            let x = input_tensor(sources, region, device);
-            let a = generator.channel_attention_input(x, &means)?; // [1, c, h/s, w/s]
-            let channels = a.dims()[1];
-            let core = a
-                .slice([
-                    0..1,
-                    0..channels,
-                    (by[i] - y0) / scale..(by[i + 1] - y0) / scale,
-                    (bx[j] - x0) / scale..(bx[j + 1] - x0) / scale,
-                ])
-                .sum_dim(2)
-                .sum_dim(3); // [1, c, 1, 1]
-            let core = read_tensor(core)?.data;
+            let x = input_tensor(sources, region);
+            let a = generator.attention_input(x, &means)?; // [c, h/s, w/s]
             if sum.is_empty() {
-                sum = vec![0.0; core.len()];
+                sum = vec![0.0; a.channels];
             }
-            for (s, v) in sum.iter_mut().zip(core) {
-                *s += f64::from(v);
+            let (ry, rx) = (
+                (by[i] - y0) / scale..(by[i + 1] - y0) / scale,
+                (bx[j] - x0) / scale..(bx[j + 1] - x0) / scale,
+            );
+            let plane = a.height * a.width;
+            for (s, p) in sum.iter_mut().zip(a.data.chunks_exact(plane)) {
+                // Summed in f32 per row as burn's sum_dim did, then accumulated in f64.
+                for y in ry.clone() {
+                    let row: f32 = p[y * a.width..][rx.clone()].iter().sum();
+                    *s += f64::from(row);
+                }
             }
         }
         let count = ((hp / scale) * (wp / scale)) as f64;
-        let c = sum.len();
-        let mean: Vec<f32> = sum.into_iter().map(|s| (s / count) as f32).collect();
-        means.push(Tensor::from_data(
-            TensorData::new(mean, [1, c, 1, 1]),
-            device,
-        ));
+        means.push(sum.into_iter().map(|s| (s / count) as f32).collect());
     }
-    let means: [Tensor<4>; LEVELS] = means
-        .try_into()
-        .map_err(|_| ModelError::InvalidOptions("channel means incomplete".into()))?;
 
     // Final pass: render each tile with the global means and blend.
     let guard = RECEPTIVE_RADIUS.min(opts.overlap.saturating_sub(MIN_RAMP) / 2);
@@ -377,8 +487,8 @@ fn render_tiled(
             h: y1 - y0,
             w: x1 - x0,
         };
-        let x = input_tensor(sources, region, device);
-        let y = read_tensor(generator.forward_with_channel_means(x, &means))?.data;
+        let x = input_tensor(sources, region);
+        let y = generator.forward_with_means(x, &means)?.data;
         let wy = axis_weights(&by, i, y0, y1, half, guard);
         let wx = axis_weights(&bx, j, x0, x1, half, guard);
         for (ty, &wyv) in wy.iter().enumerate().take(h.min(y1) - y0) {

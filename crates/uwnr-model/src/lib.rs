@@ -2,13 +2,16 @@
 //! Neural Rendering for Underwater Imaging", CVPR-W 2022) in burn: its config, weights under
 //! the authors' PyTorch keys, and whole-image inference with tiling for large photos.
 //!
-//! The device is chosen once at the edge ([`device_from_name`]) and passed down.
+//! The implementation is chosen once at the edge ([`backend_from_name`]: the dedicated
+//! `uwnr-engine` by default, or burn on a device from [`device_from_name`]) and a loaded
+//! [`Network`] renders with it.
 
 pub mod bundled;
 pub mod config;
 pub mod error;
 pub mod generator;
 pub mod infer;
+pub mod network;
 pub mod weights;
 
 pub use bundled::{BUNDLED_MODEL_NAME, bundled_weights};
@@ -17,6 +20,7 @@ pub use config::{GeneratorConfig, LightFieldMap, gmacs, param_count};
 pub use error::{ModelError, Result};
 pub use generator::{ChannelMeans, Generator};
 pub use infer::{RenderOptions, render};
+pub use network::{Backend, ENGINE_NAME, Network, backend_from_name, backend_names};
 pub use weights::{
     LoadedWeights, NamedTensor, TensorMap, WeightsDtype, WeightsFormat, WeightsInfo,
     load_generator, load_generator_from_bytes, read_tensor, read_tensor_file, read_weights,

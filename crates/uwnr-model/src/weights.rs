@@ -43,11 +43,11 @@ pub const CHECKPOINT_STATE_KEY: &str = "G1";
 /// `k[7:]`).
 pub const DDP_PREFIX: &str = "module.";
 /// Marker of the unused `InstanceNorm2d` keys, accepted on load and ignored.
-const UNUSED_NORM_MARKER: &str = ".norm.";
+pub(crate) const UNUSED_NORM_MARKER: &str = ".norm.";
 /// Prefixes of the encoder levels in the state dict.
-const DOWN_PREFIXES: [&str; LEVELS] = ["in_conv_down1", "down2", "down3", "down4"];
+pub(crate) const DOWN_PREFIXES: [&str; LEVELS] = ["in_conv_down1", "down2", "down3", "down4"];
 /// Prefixes of the decoder levels in the state dict.
-const UP_PREFIXES: [&str; LEVELS] = ["up1", "up2", "up3", "up4"];
+pub(crate) const UP_PREFIXES: [&str; LEVELS] = ["up1", "up2", "up3", "up4"];
 /// Zip local-file-header magic: `torch.save` (PyTorch >= 1.6) writes a zip archive.
 const ZIP_MAGIC: &[u8; 4] = b"PK\x03\x04";
 /// A pickle stream opens with the PROTO opcode: legacy (< 1.6) `torch.save` files.

@@ -24,7 +24,7 @@ use burn::optim::{AdamWConfig, GradientsParams, ModuleOptimizer};
 use burn::tensor::{Device, Tensor, TensorData};
 use uwnr_core::Image;
 use uwnr_core::io::DecodeLimits;
-use uwnr_model::{Generator, RenderOptions, render};
+use uwnr_model::{Backend, Generator, Network, RenderOptions};
 
 use crate::augment::{INPUT_CHANNELS, TARGET_CHANNELS};
 use crate::checkpoint::{
@@ -217,7 +217,6 @@ pub fn train(
         .collect::<uwnr_core::Result<_>>()?;
 
     let device = opts.device.clone().autodiff();
-    let inner = opts.device.clone();
     let adamw = AdamWConfig::new()
         .with_beta_1(cfg.betas.0)
         .with_beta_2(cfg.betas.1)
@@ -287,7 +286,6 @@ pub fn train(
         run,
         val: &val,
         val_lf: &val_lf,
-        inner: &inner,
         metrics: &metrics,
         val_log: &val_log,
         refs: &opts.val_refs,
@@ -411,7 +409,6 @@ struct Ctx<'a> {
     run: &'a Path,
     val: &'a [ValPair],
     val_lf: &'a [Image],
-    inner: &'a Device,
     metrics: &'a CsvLog,
     val_log: &'a CsvLog,
     refs: &'a [f64],
@@ -425,12 +422,13 @@ impl Ctx<'_> {
         observer: &mut dyn FnMut(Event<'_>),
     ) -> Result<ValResult> {
         let t0 = Instant::now();
-        let g = model.valid();
+        // Validation renders with the inference engine, as `uwnr render` does by default.
+        let g = Network::from_generator(&model.valid(), &self.cfg.model, &Backend::Engine)?;
         let opts = RenderOptions::default();
         let mut per_pair = Vec::with_capacity(self.val.len());
         let mut sheet = Vec::new();
         for (v, lf) in self.val.iter().zip(self.val_lf) {
-            let out = render(&g, &v.clean, &v.depth, lf, &opts, self.inner)?;
+            let out = g.render(&v.clean, &v.depth, lf, &opts)?;
             let p = uwnr_metrics::psnr(&out, &v.underwater, uwnr_metrics::DEFAULT_DATA_RANGE)
                 .map_err(|e| metric_err(&v.name, &e))?;
             let s = uwnr_metrics::ssim(&out, &v.underwater, uwnr_metrics::DEFAULT_DATA_RANGE)

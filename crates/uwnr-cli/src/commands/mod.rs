@@ -21,7 +21,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 
 use anyhow::{Context, Result, bail};
 use uwnr_depth::DepthSource;
-use uwnr_model::{Device, Generator, GeneratorConfig, WeightsInfo};
+use uwnr_model::{Backend, Device, Generator, GeneratorConfig, Network, WeightsInfo};
 
 use crate::cli::{Cli, Command, DepthOpts, DeviceArg};
 
@@ -41,13 +41,22 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
     }
 }
 
-/// The compute device named on the command line.
+/// The burn device named on the command line (`engine` is an inference engine, not a burn
+/// device: what burn runs beside it, such as training, runs on flex).
 pub fn device(arg: DeviceArg) -> Result<Device> {
     let name = match arg {
-        DeviceArg::Flex => "flex",
+        DeviceArg::Engine | DeviceArg::Flex => "flex",
         DeviceArg::Tch => "tch",
     };
     uwnr_model::device_from_name(name).with_context(|| format!("selecting device {name:?}"))
+}
+
+/// What runs the generator for rendering: the engine, or burn on the named device.
+pub fn backend(arg: DeviceArg) -> Result<Backend> {
+    match arg {
+        DeviceArg::Engine => Ok(Backend::Engine),
+        DeviceArg::Flex | DeviceArg::Tch => Ok(Backend::Burn(device(arg)?)),
+    }
 }
 
 /// Weights of the model shipped inside this binary (`uwnr_model::bundled_weights`).
@@ -70,6 +79,29 @@ pub fn load_model(
             let (g, c, i) = uwnr_model::load_generator_from_bytes(bytes, device)
                 .context("loading the bundled model")?;
             Ok((g, c, i, uwnr_model::BUNDLED_MODEL_NAME.to_string()))
+        }
+        None => bail!(
+            "this build has no bundled model: pass --weights FILE (safetensors or the authors' checkpoint)"
+        ),
+    }
+}
+
+/// Loads the network from `--weights`, or the bundled model, for `backend`; returns it with
+/// the file's facts and a name for where it came from.
+pub fn load_network(
+    weights: Option<&Path>,
+    backend: &Backend,
+) -> Result<(Network, WeightsInfo, String)> {
+    if let Some(path) = weights {
+        let (n, i) = Network::load(path, backend)
+            .with_context(|| format!("loading weights {}", path.display()))?;
+        return Ok((n, i, path.display().to_string()));
+    }
+    match bundled_weights() {
+        Some(bytes) => {
+            let (n, i) =
+                Network::load_from_bytes(bytes, backend).context("loading the bundled model")?;
+            Ok((n, i, uwnr_model::BUNDLED_MODEL_NAME.to_string()))
         }
         None => bail!(
             "this build has no bundled model: pass --weights FILE (safetensors or the authors' checkpoint)"
@@ -123,21 +155,19 @@ pub fn progress_bar(template: &str) -> ProgressBar {
 /// The UWNR network as a dataset renderer: `--weights` or the bundled model, with the weight
 /// bytes fingerprinted into the dataset's settings.
 pub fn network_renderer(model: &crate::cli::ModelOpts) -> Result<uwnr_dataset::Renderer> {
-    let device = device(model.device)?;
-    let (generator, config, _info, source) = load_model(model.weights.as_deref(), &device)?;
+    let backend = backend(model.device)?;
+    let (network, _info, source) = load_network(model.weights.as_deref(), &backend)?;
     let bytes = match &model.weights {
         Some(p) => std::fs::read(p).with_context(|| format!("reading {}", p.display()))?,
         None => bundled_weights().unwrap_or_default().to_vec(),
     };
     Ok(uwnr_dataset::Renderer::network(
-        generator,
-        config,
+        network,
         uwnr_model::RenderOptions {
             max_tile_pixels: model.max_whole_pixels,
             tile: model.tile,
             overlap: model.overlap,
         },
-        device,
         source,
         &bytes,
     ))

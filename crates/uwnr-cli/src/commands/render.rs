@@ -11,7 +11,7 @@ use uwnr_core::Image;
 use uwnr_core::io::{DecodeLimits, is_image_path, load_rgb, save_rgb};
 use uwnr_core::lightfield::{LightFieldMap, light_field_with};
 use uwnr_core::resize::resize_bilinear;
-use uwnr_model::{Device, Generator, RenderOptions};
+use uwnr_model::{Network, RenderOptions};
 
 use crate::cli::RenderArgs;
 use crate::inputs::{Job, expand_images, plan_jobs};
@@ -20,9 +20,8 @@ use crate::report::Batch;
 /// What renders each job.
 enum Renderer {
     Network {
-        generator: Box<Generator>,
+        network: Box<Network>,
         opts: RenderOptions,
-        device: Device,
         /// The light-field map the weights were trained with (from their config).
         map: LightFieldMap,
     },
@@ -87,18 +86,17 @@ pub fn run(a: &RenderArgs) -> Result<ExitCode> {
             seed: a.seed,
         },
         None => {
-            let device = super::device(a.model.device)?;
-            let (generator, config, _info, _source) =
-                super::load_model(a.model.weights.as_deref(), &device)?;
+            let backend = super::backend(a.model.device)?;
+            let (network, _info, _source) =
+                super::load_network(a.model.weights.as_deref(), &backend)?;
             Renderer::Network {
-                generator: Box::new(generator),
-                map: config.light_field,
+                map: network.config().light_field,
+                network: Box::new(network),
                 opts: RenderOptions {
                     max_tile_pixels: a.model.max_whole_pixels,
                     tile: a.model.tile,
                     overlap: a.model.overlap,
                 },
-                device,
             }
         }
     };
@@ -180,17 +178,10 @@ fn render_one(
         batch.note(&format!("note: {}: {n}", clean_path.display()));
     }
     let out = match (renderer, reference) {
-        (
-            Renderer::Network {
-                generator,
-                opts,
-                device,
-                ..
-            },
-            Some(RefInput::Field(field)),
-        ) => {
+        (Renderer::Network { network, opts, .. }, Some(RefInput::Field(field))) => {
             let lf = resize_bilinear(field, clean.width(), clean.height())?;
-            uwnr_model::render(generator, &clean, &depth.map, &lf, opts, device)
+            network
+                .render(&clean, &depth.map, &lf, opts)
                 .context("rendering")?
         }
         (Renderer::Baseline { method, seed }, reference) => {

@@ -1,4 +1,5 @@
 //! Integration tests of `uwnr-model`, in one binary so that the workspace links few large test executables.
 
+mod engine;
 mod parity;
 mod tiling;

@@ -1,0 +1,91 @@
+//! Times one forward pass of the full-width generator (random weights) on the engine:
+//! `cargo run --release -p uwnr-engine --example engine_time -- [sizes...] [--direct] [--isa NAME] [--runs N]`.
+//! Prints milliseconds per image (best of the runs) and GFLOP/s against the kernel MAC count.
+
+use std::time::Instant;
+
+use uwnr_engine::{ConvAlgo, EngineOptions, Generator, GeneratorWeights, Isa, Means, Planar};
+
+/// Kernel multiply-accumulates of the paper's network per pixel of input (8.61 GMac at 256^2).
+const MACS_PER_PIXEL: f64 = 8.61e9 / (256.0 * 256.0);
+
+/// CPU time of every thread of this process, in seconds (Linux `schedstat`; 0 elsewhere):
+/// on a shared machine it counts only the time this process ran, not the time it waited.
+fn cpu_seconds() -> f64 {
+    let Ok(tasks) = std::fs::read_dir("/proc/self/task") else {
+        return 0.0;
+    };
+    tasks
+        .filter_map(|t| t.ok())
+        .filter_map(|t| std::fs::read_to_string(t.path().join("schedstat")).ok())
+        .filter_map(|s| s.split_whitespace().next()?.parse::<f64>().ok())
+        .sum::<f64>()
+        / 1e9
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let mut sizes = Vec::new();
+    let mut opts = EngineOptions::default();
+    let mut runs = 5;
+    let mut it = args.iter();
+    while let Some(a) = it.next() {
+        match a.as_str() {
+            "--direct" => opts.algo = ConvAlgo::Direct,
+            "--isa" => {
+                let name = it.next().map(String::as_str).unwrap_or("");
+                opts.isa = Isa::ALL
+                    .into_iter()
+                    .find(|i| i.name() == name)
+                    .unwrap_or_else(|| {
+                        eprintln!("unknown ISA {name:?}");
+                        std::process::exit(2)
+                    });
+            }
+            "--runs" => runs = it.next().and_then(|v| v.parse().ok()).unwrap_or(runs),
+            s => sizes.push(s.parse::<usize>().unwrap_or_else(|_| {
+                eprintln!("not a size: {s:?}");
+                std::process::exit(2)
+            })),
+        }
+    }
+    if sizes.is_empty() {
+        sizes = vec![256, 512, 1024];
+    }
+    let weights = GeneratorWeights::random(7, 3, 64, 1);
+    let g = match Generator::with_options(&weights, opts) {
+        Ok(g) => g,
+        Err(e) => {
+            eprintln!("{e}");
+            std::process::exit(1)
+        }
+    };
+    for size in sizes {
+        let x = Planar {
+            channels: 7,
+            height: size,
+            width: size,
+            data: (0..7 * size * size)
+                .map(|i| (i % 255) as f32 / 255.0)
+                .collect(),
+        };
+        let mut best = f64::INFINITY;
+        let mut best_cpu = f64::INFINITY;
+        for _ in 0..runs {
+            let (t, c) = (Instant::now(), cpu_seconds());
+            let out = g.forward(&x, Means::Own);
+            let dt = t.elapsed().as_secs_f64();
+            best_cpu = best_cpu.min(cpu_seconds() - c);
+            assert!(out.is_ok());
+            best = best.min(dt);
+        }
+        let gflops = 2.0 * MACS_PER_PIXEL * (size * size) as f64 / best / 1e9;
+        println!(
+            "{size}x{size} {:?} {}: {:.1} ms wall ({gflops:.0} GFLOP/s), {:.1} ms CPU",
+            opts.algo,
+            opts.isa.name(),
+            best * 1e3,
+            best_cpu * 1e3
+        );
+    }
+}

@@ -1,0 +1,30 @@
+//! uwnr-engine: a dedicated CPU inference engine for the UWNR generator (MHB-Unet, Ye et al.,
+//! "Underwater Light Field Retention: Neural Rendering for Underwater Imaging", CVPR-W 2022).
+//!
+//! Feature maps are channels-last with a zero border; stride-1 3x3 convolutions run as
+//! Winograd F(4x4, 3x3) ([`winograd`](crate::winograd)), the stride-2 and narrow ones as direct
+//! convolutions without im2col ([`conv`](crate::conv)), all on register-blocked micro-kernels
+//! chosen at run time ([`Isa`]: AVX-512F, AVX2+FMA or portable Rust). The block's `conk1`,
+//! `conk3` and identity branches are folded into one 3x3 kernel; bias, activation and the
+//! PixelShuffle channel order are fused into the convolutions. Every operation has a plain
+//! reference implementation in [`reference`] that the kernels are tested against.
+//!
+//! The crate knows nothing of files or of any ML framework: weights come in as
+//! [`GeneratorWeights`] (PyTorch layout), images as [`Planar`] tensors.
+
+mod conv;
+pub mod error;
+mod kernels;
+mod network;
+pub mod reference;
+mod tensor;
+pub mod weights;
+mod winograd;
+
+pub use error::{EngineError, Result};
+pub use kernels::{Act, Isa};
+pub use network::{
+    ConvAlgo, EngineOptions, Generator, LayerBench, LayerKind, Means, SIZE_MULTIPLE,
+};
+pub use tensor::Planar;
+pub use weights::{BlockWeights, ConvWeights, DownWeights, GeneratorWeights, LEVELS};

@@ -1,0 +1,658 @@
+//! The UWNR generator (MHB-Unet, Ye et al., CVPR-W 2022; released `model/FSU2.py`) on the
+//! engine's kernels.
+//!
+//! Per encoder level: `stem = ELU(conv3x3_s2(x))`; the block's `conk1(stem) + conk3(stem) +
+//! stem` is one 3x3 convolution whose centre tap holds `conk3 + conk1 + I` (bias `b3 + b1`),
+//! with the LeakyReLU in its epilogue (`o`); spatial attention is a 1x1 convolution `c -> c/4`
+//! with LeakyReLU in its epilogue followed by a per-pixel dot product and sigmoid (`t = o s`);
+//! channel attention pools `t` (or takes a given mean), gates it and adds the residual in
+//! place: `x_k = stem + t g`. Per decoder level: conv3x3 `c -> 2c` with ELU in the epilogue,
+//! its output channels permuted so each PixelShuffle sub-pixel is a contiguous run, then one
+//! pass that scatters the sub-pixels and adds the skip. The output conv has tanh in its
+//! epilogue.
+
+use rayon::prelude::*;
+
+use crate::conv::Conv;
+use crate::error::{EngineError, Result};
+use crate::kernels::act::{LEAKY_RELU_SLOPE, sigmoid};
+use crate::kernels::{Act, Isa};
+use crate::tensor::{Feature, Planar, Pool};
+use crate::weights::{ATTENTION_REDUCTION, ConvWeights, GeneratorWeights, LEVELS};
+use crate::winograd::Winograd;
+
+/// Height and width of the input must be multiples of this (four stride-2 levels).
+pub const SIZE_MULTIPLE: usize = 1 << LEVELS;
+/// PixelShuffle factor of the decoder.
+const UPSCALE: usize = 2;
+
+/// How the 3x3 stride-1 convolutions are computed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum ConvAlgo {
+    /// Winograd F(4x4, 3x3) where it is faster, direct elsewhere (the default).
+    #[default]
+    Auto,
+    /// Direct convolution everywhere.
+    Direct,
+}
+
+/// Build-time choices of the engine.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct EngineOptions {
+    /// Instruction set of the kernels.
+    pub isa: Isa,
+    /// Algorithm of the stride-1 3x3 convolutions.
+    pub algo: ConvAlgo,
+}
+
+impl Default for EngineOptions {
+    fn default() -> Self {
+        Self {
+            isa: Isa::best(),
+            algo: ConvAlgo::Auto,
+        }
+    }
+}
+
+/// A stride-1 3x3 convolution, direct or Winograd.
+#[derive(Clone, Debug)]
+enum Conv3 {
+    Direct(Conv),
+    Winograd(Winograd),
+}
+
+impl Conv3 {
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        opts: EngineOptions,
+        weight: &[f32],
+        bias: &[f32],
+        cout: usize,
+        cin: usize,
+        act: Act,
+        order: Option<&[usize]>,
+    ) -> Self {
+        if opts.algo == ConvAlgo::Auto && Winograd::worthwhile(cin, cout) {
+            Self::Winograd(Winograd::new(opts.isa, weight, bias, cout, cin, act, order))
+        } else {
+            Self::Direct(Conv::new(
+                opts.isa, weight, bias, cout, cin, 3, 1, act, order,
+            ))
+        }
+    }
+
+    fn run(&self, src: &Feature, dst: &mut Feature) {
+        match self {
+            Self::Direct(c) => c.run(src, dst),
+            Self::Winograd(c) => c.run(src, dst),
+        }
+    }
+}
+
+#[derive(Clone, Debug)]
+struct Level {
+    c: usize,
+    stem: Conv,
+    body: Conv3,
+    sa_reduce: Conv,
+    sa_expand: Vec<f32>,
+    sa_expand_bias: f32,
+    ca_reduce: ConvWeights,
+    ca_expand: ConvWeights,
+}
+
+/// What the channel attention of each block pools.
+#[derive(Clone, Copy, Debug)]
+pub enum Means<'a> {
+    /// Its own input (the released forward).
+    Own,
+    /// These means, one per block (`base_width << k` values each), e.g. of a whole image of
+    /// which the input is a tile.
+    Given(&'a [Vec<f32>]),
+}
+
+/// The generator, packed for one instruction set. Immutable: share it between threads.
+#[derive(Debug)]
+pub struct Generator {
+    opts: EngineOptions,
+    /// Buffers of earlier passes, reused by the next one.
+    pool: std::sync::Mutex<Pool>,
+    in_channels: usize,
+    out_channels: usize,
+    base_width: usize,
+    levels: Vec<Level>,
+    ups: Vec<Conv3>,
+    out: Conv3,
+}
+
+impl Generator {
+    /// Packs `weights` for the fastest kernels this CPU runs.
+    pub fn new(weights: &GeneratorWeights) -> Result<Self> {
+        Self::with_options(weights, EngineOptions::default())
+    }
+
+    /// Packs `weights` with explicit options (a particular instruction set, e.g. in tests).
+    pub fn with_options(weights: &GeneratorWeights, opts: EngineOptions) -> Result<Self> {
+        weights.validate()?;
+        if !opts.isa.is_supported() {
+            return Err(EngineError::UnsupportedIsa(opts.isa));
+        }
+        let isa = opts.isa;
+        let levels = weights
+            .downs
+            .iter()
+            .map(|d| {
+                let c = d.conv.cout;
+                let b = &d.block;
+                let (fused_w, fused_b) = fuse_block(&b.conk3, &b.conk1);
+                Level {
+                    c,
+                    stem: Conv::new(
+                        isa,
+                        &d.conv.weight,
+                        &d.conv.bias,
+                        c,
+                        d.conv.cin,
+                        3,
+                        2,
+                        Act::Elu,
+                        None,
+                    ),
+                    body: Conv3::new(opts, &fused_w, &fused_b, c, c, Act::LeakyRelu, None),
+                    sa_reduce: Conv::new(
+                        isa,
+                        &b.sa_reduce.weight,
+                        &b.sa_reduce.bias,
+                        c / ATTENTION_REDUCTION,
+                        c,
+                        1,
+                        1,
+                        Act::LeakyRelu,
+                        None,
+                    ),
+                    sa_expand: b.sa_expand.weight.clone(),
+                    sa_expand_bias: b.sa_expand.bias[0],
+                    ca_reduce: b.ca_reduce.clone(),
+                    ca_expand: b.ca_expand.clone(),
+                }
+            })
+            .collect();
+        let ups = weights
+            .ups
+            .iter()
+            .map(|u| {
+                let order = shuffle_order(u.cout);
+                Conv3::new(
+                    opts,
+                    &u.weight,
+                    &u.bias,
+                    u.cout,
+                    u.cin,
+                    Act::Elu,
+                    Some(&order),
+                )
+            })
+            .collect();
+        let o = &weights.out;
+        Ok(Self {
+            opts,
+            pool: std::sync::Mutex::new(Pool::default()),
+            in_channels: weights.in_channels(),
+            out_channels: weights.out_channels(),
+            base_width: weights.base_width(),
+            levels,
+            ups,
+            out: Conv3::new(opts, &o.weight, &o.bias, o.cout, o.cin, Act::Tanh, None),
+        })
+    }
+
+    /// The options the generator was packed with.
+    #[must_use]
+    pub fn options(&self) -> EngineOptions {
+        self.opts
+    }
+
+    /// Input channels.
+    #[must_use]
+    pub fn in_channels(&self) -> usize {
+        self.in_channels
+    }
+
+    /// Output channels.
+    #[must_use]
+    pub fn out_channels(&self) -> usize {
+        self.out_channels
+    }
+
+    /// First-level width.
+    #[must_use]
+    pub fn base_width(&self) -> usize {
+        self.base_width
+    }
+
+    fn check(&self, x: &Planar, means: Means<'_>) -> Result<()> {
+        if x.channels != self.in_channels {
+            return Err(EngineError::Input(format!(
+                "{} channels, the network takes {}",
+                x.channels, self.in_channels
+            )));
+        }
+        if x.height == 0
+            || x.width == 0
+            || !x.height.is_multiple_of(SIZE_MULTIPLE)
+            || !x.width.is_multiple_of(SIZE_MULTIPLE)
+        {
+            return Err(EngineError::Input(format!(
+                "size {}x{} must be a positive multiple of {SIZE_MULTIPLE} in both directions",
+                x.width, x.height
+            )));
+        }
+        if x.data.len() != x.channels * x.height * x.width {
+            return Err(EngineError::Input(format!(
+                "{} values for {}x{}x{}",
+                x.data.len(),
+                x.channels,
+                x.height,
+                x.width
+            )));
+        }
+        if let Means::Given(m) = means {
+            if m.len() < LEVELS {
+                return Err(EngineError::Input(format!(
+                    "{} means, expected {LEVELS}",
+                    m.len()
+                )));
+            }
+            for (k, (m, l)) in m.iter().zip(&self.levels).enumerate() {
+                if m.len() != l.c {
+                    return Err(EngineError::Input(format!(
+                        "mean {k} has {} values, block {k} has {} channels",
+                        m.len(),
+                        l.c
+                    )));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The forward pass. Returns the output (`out_channels x h x w`, in (-1, 1)) and the
+    /// channel-attention mean each block used.
+    ///
+    /// # Shapes
+    /// - `x`: `in_channels x h x w` with `h`, `w` multiples of 16.
+    pub fn forward(&self, x: &Planar, means: Means<'_>) -> Result<(Planar, Vec<Vec<f32>>)> {
+        self.check(x, means)?;
+        let mut pool = self.take_pool();
+        let mut skips: Vec<Feature> = Vec::with_capacity(LEVELS);
+        let mut used = Vec::with_capacity(LEVELS);
+        let input = Feature::from_planar(x, 1);
+        for (k, level) in self.levels.iter().enumerate() {
+            let h = skips.last().unwrap_or(&input);
+            let (stem, attended) = level.attention_input(h, &mut pool);
+            let mean = match means {
+                Means::Own => pool_means(&attended),
+                Means::Given(m) => m[k].clone(),
+            };
+            skips.push(level.finish(stem, &attended, &mean));
+            pool.give(attended);
+            used.push(mean);
+        }
+        let mut h = skips.pop().unwrap_or(input);
+        for up in &self.ups {
+            let skip = skips.pop();
+            let next = upsample(up, &h, skip.as_ref(), &mut pool);
+            pool.give(std::mem::replace(&mut h, next));
+            if let Some(s) = skip {
+                pool.give(s);
+            }
+        }
+        let mut y = Feature::zeros_in(&mut pool, h.h, h.w, self.out_channels, 0);
+        self.out.run(&h, &mut y);
+        let out = y.to_planar();
+        pool.give(h);
+        pool.give(y);
+        self.return_pool(pool);
+        Ok((out, used))
+    }
+
+    fn take_pool(&self) -> Pool {
+        self.pool
+            .lock()
+            .map(|mut p| std::mem::take(&mut *p))
+            .unwrap_or_default()
+    }
+
+    fn return_pool(&self, pool: Pool) {
+        if let Ok(mut p) = self.pool.lock() {
+            p.absorb(pool);
+        }
+    }
+
+    /// Runs the encoder up to block `k = known.len()` and returns that block's
+    /// channel-attention input (before pooling); blocks before `k` gate with `known`.
+    ///
+    /// # Shapes
+    /// - output: `(base_width << k) x h / 2^(k+1) x w / 2^(k+1)`.
+    pub fn channel_attention_input(&self, x: &Planar, known: &[Vec<f32>]) -> Result<Planar> {
+        let k = known.len();
+        if k >= LEVELS {
+            return Err(EngineError::Input(format!(
+                "{k} means given, the encoder has only {LEVELS} blocks"
+            )));
+        }
+        let mut padded = known.to_vec();
+        padded.extend(self.levels[k..].iter().map(|l| vec![0.0; l.c]));
+        self.check(x, Means::Given(&padded))?;
+        let mut pool = self.take_pool();
+        let mut h = Feature::from_planar(x, 1);
+        for (level, l) in self.levels.iter().enumerate() {
+            let (stem, attended) = l.attention_input(&h, &mut pool);
+            if level == k {
+                let out = attended.to_planar();
+                pool.give(attended);
+                pool.give(stem);
+                pool.give(h);
+                self.return_pool(pool);
+                return Ok(out);
+            }
+            let next = l.finish(stem, &attended, &known[level]);
+            pool.give(attended);
+            pool.give(std::mem::replace(&mut h, next));
+        }
+        Err(EngineError::Input(format!("block {k} not reached")))
+    }
+}
+
+impl Level {
+    /// The stem (the block's residual) and `SA(LeakyReLU(conk1 + conk3 + id))`.
+    fn attention_input(&self, x: &Feature, pool: &mut Pool) -> (Feature, Feature) {
+        let (ho, wo) = self.stem.out_size(x.h, x.w);
+        let mut stem = Feature::zeros_in(pool, ho, wo, self.c, 1);
+        self.stem.run(x, &mut stem);
+        let mut o = Feature::zeros_in(pool, ho, wo, self.c, 0);
+        self.body.run(&stem, &mut o);
+        self.spatial_attention(&mut o, pool);
+        (stem, o)
+    }
+
+    /// `o <- o * sigmoid(expand(LeakyReLU(reduce(o))))`, per pixel.
+    fn spatial_attention(&self, o: &mut Feature, pool: &mut Pool) {
+        let (ho, wo) = (o.h, o.w);
+        let r = self.c / ATTENTION_REDUCTION;
+        let mut hidden = Feature::zeros_in(pool, ho, wo, r, 0);
+        self.sa_reduce.run(o, &mut hidden);
+        let (c, w2, b2) = (self.c, &self.sa_expand, self.sa_expand_bias);
+        o.data
+            .par_chunks_mut(wo * c)
+            .zip(hidden.data.par_chunks(wo * r))
+            .for_each(|(orow, hrow)| {
+                for (px, hid) in orow.chunks_exact_mut(c).zip(hrow.chunks_exact(r)) {
+                    let z: f32 = hid.iter().zip(w2).map(|(a, b)| a * b).sum::<f32>() + b2;
+                    let s = sigmoid(z);
+                    for v in px {
+                        *v *= s;
+                    }
+                }
+            });
+        pool.give(hidden);
+    }
+
+    /// `stem + t g` with the channel gate `g` computed from `mean`.
+    fn finish(&self, mut stem: Feature, attended: &Feature, mean: &[f32]) -> Feature {
+        let gate = channel_gate(&self.ca_reduce, &self.ca_expand, mean);
+        let (w, c) = (stem.w, self.c);
+        let stride = stem.row_stride();
+        let pad = stem.pad;
+        stem.data
+            .par_chunks_mut(stride)
+            .skip(pad)
+            .take(stem.h)
+            .zip(attended.data.par_chunks(w * c))
+            .for_each(|(srow, trow)| {
+                let srow = &mut srow[pad * c..pad * c + w * c];
+                for (s, t) in srow.chunks_exact_mut(c).zip(trow.chunks_exact(c)) {
+                    for ((s, t), g) in s.iter_mut().zip(t).zip(&gate) {
+                        *s += t * g;
+                    }
+                }
+            });
+        stem
+    }
+}
+
+/// One layer of the generator on random weights and input, for per-kernel benchmarks at the
+/// network's real shapes.
+#[derive(Debug)]
+pub struct LayerBench {
+    kind: LayerKind,
+    level: Level,
+    up: Option<Conv3>,
+    input: Feature,
+    output: Feature,
+    pool: Pool,
+}
+
+/// Which layer [`LayerBench`] runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LayerKind {
+    /// The encoder's stride-2 conv3x3 `cin -> c`.
+    Stride2,
+    /// The block's fused 3x3 (`conk3 + conk1 + id`), direct or Winograd per the options.
+    Block3x3,
+    /// The spatial-attention 1x1 `c -> c/4` with its per-pixel gate.
+    SpatialAttention,
+    /// Pooling, channel gate and residual add of channel attention.
+    ChannelAttention,
+    /// The decoder's conv3x3 `c -> 2c` with PixelShuffle.
+    Up,
+}
+
+impl LayerBench {
+    /// Encoder level `level` of a network of `base_width` at input size `size` (decoder level
+    /// at the same width for [`LayerKind::Up`]).
+    pub fn new(
+        kind: LayerKind,
+        opts: EngineOptions,
+        base_width: usize,
+        level: usize,
+        size: usize,
+    ) -> Result<Self> {
+        let weights = GeneratorWeights::random(7, 3, base_width, 1);
+        let g = Generator::with_options(&weights, opts)?;
+        let l = g
+            .levels
+            .get(level)
+            .cloned()
+            .ok_or_else(|| EngineError::Input(format!("no level {level}")))?;
+        let c = l.c;
+        let side = size >> (level + 1);
+        let cin = if level == 0 { 7 } else { c / 2 };
+        let (input, output, up) = match kind {
+            LayerKind::Stride2 => (
+                random_feature(2 * side, 2 * side, cin, 1),
+                Feature::zeros(side, side, c, 1),
+                None,
+            ),
+            LayerKind::Block3x3 => (
+                random_feature(side, side, c, 1),
+                Feature::zeros(side, side, c, 0),
+                None,
+            ),
+            LayerKind::SpatialAttention | LayerKind::ChannelAttention => (
+                random_feature(side, side, c, 1),
+                random_feature(side, side, c, 0),
+                None,
+            ),
+            LayerKind::Up => {
+                let up = g.ups.get(LEVELS - 1 - level).cloned();
+                (
+                    random_feature(side, side, c, 1),
+                    Feature::zeros(side, side, 2 * c, 0),
+                    up,
+                )
+            }
+        };
+        Ok(Self {
+            kind,
+            level: l,
+            up,
+            input,
+            output,
+            pool: Pool::default(),
+        })
+    }
+
+    /// Multiply-accumulates of one run (0 for the pooling and gating passes).
+    #[must_use]
+    pub fn macs(&self) -> u64 {
+        let px = (self.output.h * self.output.w) as u64;
+        let c = self.level.c as u64;
+        match self.kind {
+            LayerKind::Stride2 => px * c * self.input.c as u64 * 9,
+            LayerKind::Block3x3 => px * c * c * 9,
+            LayerKind::SpatialAttention => px * c * (c / 4) + px * (c / 4),
+            LayerKind::ChannelAttention => 0,
+            LayerKind::Up => px * c * 2 * c * 9,
+        }
+    }
+
+    /// Runs the layer once.
+    pub fn run(&mut self) {
+        match self.kind {
+            LayerKind::Stride2 => self.level.stem.run(&self.input, &mut self.output),
+            LayerKind::Block3x3 => self.level.body.run(&self.input, &mut self.output),
+            LayerKind::SpatialAttention => self
+                .level
+                .spatial_attention(&mut self.output, &mut self.pool),
+            LayerKind::ChannelAttention => {
+                let mean = pool_means(&self.output);
+                let stem = std::mem::replace(&mut self.input, Feature::zeros(0, 0, 0, 0));
+                self.input = self.level.finish(stem, &self.output, &mean);
+            }
+            LayerKind::Up => {
+                if let Some(up) = &self.up {
+                    up.run(&self.input, &mut self.output);
+                }
+            }
+        }
+    }
+}
+
+fn random_feature(h: usize, w: usize, c: usize, pad: usize) -> Feature {
+    let mut f = Feature::zeros(h, w, c, pad);
+    for y in 0..h {
+        for (i, v) in f.row_mut(y).iter_mut().enumerate() {
+            *v = ((i * 7919 + y * 104_729) % 1000) as f32 / 1000.0 - 0.5;
+        }
+    }
+    f
+}
+
+/// Mean over all pixels of each channel (f64 sums).
+fn pool_means(t: &Feature) -> Vec<f32> {
+    let c = t.c;
+    let sums = (0..t.h)
+        .into_par_iter()
+        .fold(
+            || vec![0.0f64; c],
+            |mut acc, y| {
+                for px in t.row(y).chunks_exact(c) {
+                    for (a, &v) in acc.iter_mut().zip(px) {
+                        *a += f64::from(v);
+                    }
+                }
+                acc
+            },
+        )
+        .reduce(
+            || vec![0.0f64; c],
+            |mut a, b| {
+                for (x, y) in a.iter_mut().zip(b) {
+                    *x += y;
+                }
+                a
+            },
+        );
+    let n = (t.h * t.w) as f64;
+    sums.into_iter().map(|s| (s / n) as f32).collect()
+}
+
+/// `sigmoid(expand(LeakyReLU(reduce(mean))))`.
+fn channel_gate(reduce: &ConvWeights, expand: &ConvWeights, mean: &[f32]) -> Vec<f32> {
+    let dense = |w: &ConvWeights, x: &[f32]| -> Vec<f32> {
+        (0..w.cout)
+            .map(|o| {
+                let row = &w.weight[o * w.cin..(o + 1) * w.cin];
+                w.bias[o] + row.iter().zip(x).map(|(a, b)| a * b).sum::<f32>()
+            })
+            .collect()
+    };
+    let hidden: Vec<f32> = dense(reduce, mean)
+        .into_iter()
+        .map(|v| v.max(v * LEAKY_RELU_SLOPE))
+        .collect();
+    dense(expand, &hidden).into_iter().map(sigmoid).collect()
+}
+
+/// `conk3 + conk1 + I` as one 3x3 kernel (the identity and `conk1` on the centre tap).
+fn fuse_block(conk3: &ConvWeights, conk1: &ConvWeights) -> (Vec<f32>, Vec<f32>) {
+    let c = conk3.cout;
+    let mut w = conk3.weight.clone();
+    for co in 0..c {
+        for ci in 0..c {
+            let centre = (co * c + ci) * 9 + 4;
+            w[centre] += conk1.weight[co * c + ci] + if co == ci { 1.0 } else { 0.0 };
+        }
+    }
+    let b = conk3
+        .bias
+        .iter()
+        .zip(&conk1.bias)
+        .map(|(a, b)| a + b)
+        .collect();
+    (w, b)
+}
+
+/// Packed channel `n = s C + c` of an up conv takes original channel `c r^2 + s`, so that
+/// sub-pixel `s = i r + j` of the shuffle is the contiguous run `[s C, (s + 1) C)`.
+fn shuffle_order(cout: usize) -> Vec<usize> {
+    let sub = UPSCALE * UPSCALE;
+    let c = cout / sub;
+    (0..cout).map(|n| (n % c) * sub + n / c).collect()
+}
+
+/// `PixelShuffle(ELU(conv(x))) + skip` into a padded map.
+fn upsample(conv: &Conv3, x: &Feature, skip: Option<&Feature>, pool: &mut Pool) -> Feature {
+    let cout = 2 * x.c;
+    let mut tmp = Feature::zeros_in(pool, x.h, x.w, cout, 0);
+    conv.run(x, &mut tmp);
+    let c = cout / (UPSCALE * UPSCALE);
+    let mut out = Feature::zeros_in(pool, x.h * UPSCALE, x.w * UPSCALE, c, 1);
+    let stride = out.row_stride();
+    let (pad, wo) = (out.pad, out.w);
+    out.data
+        .par_chunks_mut(stride)
+        .skip(pad)
+        .take(x.h * UPSCALE)
+        .enumerate()
+        .for_each(|(oy, orow)| {
+            let (y, i) = (oy / UPSCALE, oy % UPSCALE);
+            let src = tmp.row(y);
+            let orow = &mut orow[pad * c..pad * c + wo * c];
+            for (ox, px) in orow.chunks_exact_mut(c).enumerate() {
+                let (xx, j) = (ox / UPSCALE, ox % UPSCALE);
+                let s = i * UPSCALE + j;
+                let from = &src[xx * cout + s * c..xx * cout + (s + 1) * c];
+                px.copy_from_slice(from);
+                if let Some(skip) = skip {
+                    let sk = &skip.data[skip.at(oy, ox)..skip.at(oy, ox) + c];
+                    for (v, s) in px.iter_mut().zip(sk) {
+                        *v += s;
+                    }
+                }
+            }
+        });
+    pool.give(tmp);
+    out
+}

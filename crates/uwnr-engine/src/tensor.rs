@@ -1,0 +1,207 @@
+//! Feature maps in the engine's layout: channels-last (`[h][w][c]`), optionally with a
+//! one-pixel zero border so 3x3 convolutions read their neighbourhood without bounds checks,
+//! and planar images (`[c][h][w]`, the layout of the network's input and output).
+
+/// A planar `[channels][height][width]` tensor of one image.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Planar {
+    /// Channels.
+    pub channels: usize,
+    /// Rows.
+    pub height: usize,
+    /// Columns.
+    pub width: usize,
+    /// `channels * height * width` values, channel-major.
+    pub data: Vec<f32>,
+}
+
+impl Planar {
+    /// A zero tensor.
+    #[must_use]
+    pub fn zeros(channels: usize, height: usize, width: usize) -> Self {
+        Self {
+            channels,
+            height,
+            width,
+            data: vec![0.0; channels * height * width],
+        }
+    }
+}
+
+/// A channels-last feature map with a zero border of `pad` pixels.
+#[derive(Clone, Debug)]
+pub(crate) struct Feature {
+    pub h: usize,
+    pub w: usize,
+    pub c: usize,
+    pub pad: usize,
+    pub data: Vec<f32>,
+}
+
+impl Feature {
+    /// A zero map of `h x w x c` with a border of `pad` pixels.
+    pub fn zeros(h: usize, w: usize, c: usize, pad: usize) -> Self {
+        Self {
+            h,
+            w,
+            c,
+            pad,
+            data: vec![0.0; (h + 2 * pad) * (w + 2 * pad) * c],
+        }
+    }
+
+    /// A zero map whose storage comes from `pool` (no page faults once the pool is warm).
+    pub fn zeros_in(pool: &mut Pool, h: usize, w: usize, c: usize, pad: usize) -> Self {
+        Self {
+            h,
+            w,
+            c,
+            pad,
+            data: pool.take((h + 2 * pad) * (w + 2 * pad) * c),
+        }
+    }
+
+    /// Floats between vertically adjacent pixels.
+    pub fn row_stride(&self) -> usize {
+        (self.w + 2 * self.pad) * self.c
+    }
+
+    /// Index of channel 0 of interior pixel `(y, x)`.
+    pub fn at(&self, y: usize, x: usize) -> usize {
+        (y + self.pad) * self.row_stride() + (x + self.pad) * self.c
+    }
+
+    /// The `c` values of interior row `y` (without the border).
+    pub fn row(&self, y: usize) -> &[f32] {
+        let i = self.at(y, 0);
+        &self.data[i..i + self.w * self.c]
+    }
+
+    /// The `c` values of interior row `y`, mutable.
+    pub fn row_mut(&mut self, y: usize) -> &mut [f32] {
+        let i = self.at(y, 0);
+        let n = self.w * self.c;
+        &mut self.data[i..i + n]
+    }
+
+    /// Channels-last copy of a planar tensor.
+    pub fn from_planar(p: &Planar, pad: usize) -> Self {
+        let mut f = Self::zeros(p.height, p.width, p.channels, pad);
+        let plane = p.height * p.width;
+        for y in 0..p.height {
+            let c = p.channels;
+            let row = f.row_mut(y);
+            for (x, px) in row.chunks_exact_mut(c).enumerate() {
+                for (ch, v) in px.iter_mut().enumerate() {
+                    *v = p.data[ch * plane + y * p.width + x];
+                }
+            }
+        }
+        f
+    }
+
+    /// Planar copy of the interior.
+    pub fn to_planar(&self) -> Planar {
+        let mut p = Planar::zeros(self.c, self.h, self.w);
+        let plane = self.h * self.w;
+        for y in 0..self.h {
+            for (x, px) in self.row(y).chunks_exact(self.c).enumerate() {
+                for (ch, &v) in px.iter().enumerate() {
+                    p.data[ch * plane + y * self.w + x] = v;
+                }
+            }
+        }
+        p
+    }
+}
+
+/// Buffers a [`Pool`] keeps at most.
+const MAX_POOLED: usize = 16;
+/// Bytes a [`Pool`] keeps at most.
+const MAX_POOLED_BYTES: usize = 128 << 20;
+
+/// Buffers kept between forward passes, so that a render reuses memory it has already
+/// touched instead of faulting in fresh pages for every feature map.
+#[derive(Debug, Default)]
+pub(crate) struct Pool {
+    free: Vec<Vec<f32>>,
+}
+
+impl Pool {
+    /// A zeroed buffer of `n` floats, from the smallest free buffer that holds it.
+    pub fn take(&mut self, n: usize) -> Vec<f32> {
+        let best = self
+            .free
+            .iter()
+            .enumerate()
+            .filter(|(_, v)| v.capacity() >= n)
+            .min_by_key(|(_, v)| v.capacity())
+            .map(|(i, _)| i);
+        let mut v = match best {
+            Some(i) => self.free.swap_remove(i),
+            None => Vec::with_capacity(n),
+        };
+        v.clear();
+        v.resize(n, 0.0);
+        v
+    }
+
+    /// Returns a feature map's storage.
+    pub fn give(&mut self, f: Feature) {
+        self.free.push(f.data);
+    }
+
+    /// Moves the buffers of `other` into this pool, keeping at most [`MAX_POOLED`] buffers
+    /// and [`MAX_POOLED_BYTES`], largest first: a 256x256 pass keeps all of its buffers, a
+    /// 1024x1024 tile keeps part of them, so memory stays bounded by the tile size.
+    pub fn absorb(&mut self, other: Pool) {
+        self.free.extend(other.free);
+        self.free.sort_by_key(|v| std::cmp::Reverse(v.capacity()));
+        let mut bytes = 0;
+        self.free.retain(|v| {
+            let b = v.capacity() * std::mem::size_of::<f32>();
+            let keep = bytes + b <= MAX_POOLED_BYTES;
+            if keep {
+                bytes += b;
+            }
+            keep
+        });
+        self.free.truncate(MAX_POOLED);
+    }
+}
+
+/// A pointer that may be shared between the threads writing disjoint parts of one buffer.
+#[derive(Clone, Copy)]
+pub(crate) struct SharedMut(pub *mut f32);
+impl SharedMut {
+    /// The pointer (a method, so closures capture the whole `Sync` wrapper).
+    pub fn get(self) -> *mut f32 {
+        self.0
+    }
+}
+
+// SAFETY: users write disjoint ranges only (each parallel work item owns its output range).
+unsafe impl Send for SharedMut {}
+// SAFETY: as above.
+unsafe impl Sync for SharedMut {}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn planar_round_trip_keeps_the_border_zero() {
+        let p = Planar {
+            channels: 2,
+            height: 2,
+            width: 3,
+            data: (0..12).map(|v| v as f32 + 1.0).collect(),
+        };
+        let f = Feature::from_planar(&p, 1);
+        assert_eq!(f.data.len(), 4 * 5 * 2);
+        assert_eq!(f.data[f.at(1, 2)], 6.0);
+        assert_eq!(f.data[f.at(1, 2) + 1], 12.0);
+        assert_eq!(f.data.iter().filter(|&&v| v == 0.0).count(), 40 - 12);
+        assert_eq!(f.to_planar(), p);
+    }
+}

@@ -1,0 +1,158 @@
+//! Forward-pass time of the full-width UWNR generator (seeded random weights) on the engine
+//! and on burn's flex backend, for `tools/bench_inference.sh`:
+//! `cargo run --release -p uwnr-model --example bench_inference -- [--runs N] [--sizes 256 512] [--no-flex]`.
+//!
+//! Threads come from rayon (`RAYON_NUM_THREADS`). Prints the median of the timed runs after one
+//! warm-up, one `RESULT <path> <size> <ms>` line per measurement, and `PEAK <GFLOP/s>`: the FP32
+//! FMA throughput of this machine on that many threads (independent FMA chains, AVX2+FMA).
+
+use std::hint::black_box;
+use std::time::Instant;
+
+use burn::tensor::{Distribution, Tensor};
+use rayon::prelude::*;
+use uwnr_engine::{Means, Planar};
+use uwnr_model::network::engine_weights;
+use uwnr_model::weights::generator_to_tensors;
+use uwnr_model::{Device, GeneratorConfig, gmacs};
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+fn time<F: FnMut()>(runs: usize, mut f: F) -> f64 {
+    f(); // warm-up
+    median(
+        (0..runs)
+            .map(|_| {
+                let t = Instant::now();
+                f();
+                t.elapsed().as_secs_f64() * 1e3
+            })
+            .collect(),
+    )
+}
+
+/// Chains of FMAs per thread (enough to cover the FMA latency on two pipes).
+#[cfg(target_arch = "x86_64")]
+const CHAINS: usize = 12;
+#[cfg(target_arch = "x86_64")]
+const PEAK_ITERS: usize = 50_000_000;
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+fn fma_chains() -> f32 {
+    use std::arch::x86_64::{_mm256_fmadd_ps, _mm256_set1_ps, _mm256_storeu_ps};
+    let (b, c) = (_mm256_set1_ps(0.999_9), _mm256_set1_ps(1e-4));
+    let mut acc = [_mm256_set1_ps(1.0); CHAINS];
+    for _ in 0..PEAK_ITERS {
+        for a in &mut acc {
+            *a = _mm256_fmadd_ps(*a, b, c);
+        }
+    }
+    let mut out = [0.0f32; 8];
+    // SAFETY: out holds 8 floats.
+    unsafe { _mm256_storeu_ps(out.as_mut_ptr(), acc[0]) };
+    out[0]
+}
+
+/// Measured FP32 FMA peak in GFLOP/s on all of rayon's threads.
+fn peak_gflops() -> Option<f64> {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if !(std::arch::is_x86_feature_detected!("avx2")
+            && std::arch::is_x86_feature_detected!("fma"))
+        {
+            return None;
+        }
+        let threads = rayon::current_num_threads();
+        let t = Instant::now();
+        let s: f32 = (0..threads)
+            .into_par_iter()
+            // SAFETY: AVX2 and FMA were detected above.
+            .map(|_| unsafe { fma_chains() })
+            .sum();
+        black_box(s);
+        let flops = (threads * PEAK_ITERS * CHAINS * 8 * 2) as f64;
+        Some(flops / t.elapsed().as_secs_f64() / 1e9)
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    None
+}
+
+fn main() {
+    let mut runs = 5;
+    let mut sizes = vec![256, 512, 1024];
+    let mut flex = true;
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let mut i = 0;
+    while i < args.len() {
+        match args[i].as_str() {
+            "--runs" => {
+                i += 1;
+                runs = args.get(i).and_then(|v| v.parse().ok()).unwrap_or(runs);
+            }
+            "--no-flex" => flex = false,
+            "--sizes" => {
+                sizes.clear();
+                while let Some(v) = args.get(i + 1).and_then(|v| v.parse().ok()) {
+                    sizes.push(v);
+                    i += 1;
+                }
+            }
+            other => {
+                eprintln!("unknown argument {other:?}");
+                std::process::exit(2);
+            }
+        }
+        i += 1;
+    }
+    let device = Device::flex();
+    device.seed(0);
+    let config = GeneratorConfig::default();
+    let g = config.init(&device).expect("paper config");
+    let tensors = generator_to_tensors(&g, &config).expect("tensors");
+    let (weights, _) = engine_weights(&config, tensors).expect("engine weights");
+    let engine = uwnr_engine::Generator::new(&weights).expect("engine");
+    println!(
+        "threads {}, engine ISA {}",
+        rayon::current_num_threads(),
+        engine.options().isa.name()
+    );
+    if let Some(p) = peak_gflops() {
+        println!("PEAK {p:.1}");
+    }
+    for &size in &sizes {
+        let gflop = 2.0 * gmacs(&config, size, size);
+        let x = Planar {
+            channels: 7,
+            height: size,
+            width: size,
+            data: (0..7 * size * size)
+                .map(|i| ((i * 7919) % 1000) as f32 / 1000.0)
+                .collect(),
+        };
+        let ms = time(runs, || {
+            black_box(engine.forward(&x, Means::Own).expect("forward"));
+        });
+        println!(
+            "engine {size}x{size}: {ms:.1} ms, {:.0} GFLOP/s",
+            gflop / ms * 1e3
+        );
+        println!("RESULT engine {size} {ms:.2}");
+        if flex {
+            let t =
+                Tensor::<4>::random([1, 7, size, size], Distribution::Uniform(0.0, 1.0), &device);
+            let ms = time(runs.min(3), || {
+                let y = g.forward(t.clone());
+                black_box(y.into_data());
+            });
+            println!(
+                "flex {size}x{size}: {ms:.1} ms, {:.0} GFLOP/s",
+                gflop / ms * 1e3
+            );
+            println!("RESULT flex {size} {ms:.2}");
+        }
+    }
+}

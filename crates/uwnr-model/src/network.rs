@@ -1,0 +1,264 @@
+//! A loaded UWNR generator ready to render, on the implementation chosen at the edge: the
+//! dedicated engine (`uwnr-engine`, the default) or burn's module on a burn device (`flex`,
+//! or `tch` with that feature), kept for comparison and for training. Both render through the
+//! same padding and tiling code ([`crate::infer`]) and agree within 1e-4 on the output.
+
+use std::path::Path;
+use std::sync::Arc;
+
+use uwnr_core::Image;
+use uwnr_engine::{ConvWeights, GeneratorWeights};
+
+use crate::config::{ATTENTION_REDUCTION, GeneratorConfig, LEVELS};
+use crate::error::{ModelError, Result};
+use crate::generator::Generator;
+use crate::infer::{BurnForward, RenderOptions, render_with};
+use crate::weights::{
+    DOWN_PREFIXES, LoadedWeights, NamedTensor, TensorMap, UNUSED_NORM_MARKER, UP_PREFIXES,
+    WeightsInfo, generator_from_tensors, generator_to_tensors, read_weights,
+    read_weights_from_bytes,
+};
+
+/// Which implementation runs the generator.
+#[derive(Clone, Debug)]
+pub enum Backend {
+    /// The dedicated CPU engine (fastest; inference only).
+    Engine,
+    /// burn's module on this device (`flex`, `tch`).
+    Burn(burn::tensor::Device),
+}
+
+/// Names [`backend_from_name`] accepts in this build, the default first.
+#[must_use]
+pub fn backend_names() -> Vec<&'static str> {
+    let mut names = vec![ENGINE_NAME];
+    names.extend_from_slice(crate::device_names());
+    names
+}
+
+/// Name of the engine backend.
+pub const ENGINE_NAME: &str = "engine";
+
+/// The backend called `name`: `"engine"`, or a burn device name ([`crate::device_from_name`]).
+pub fn backend_from_name(name: &str) -> Result<Backend> {
+    if name == ENGINE_NAME {
+        return Ok(Backend::Engine);
+    }
+    crate::device_from_name(name)
+        .map(Backend::Burn)
+        .map_err(|_| ModelError::UnknownDevice {
+            name: name.to_string(),
+            available: backend_names().join(", "),
+        })
+}
+
+#[derive(Clone, Debug)]
+enum Imp {
+    Engine(Arc<uwnr_engine::Generator>),
+    Burn {
+        generator: Box<Generator>,
+        device: burn::tensor::Device,
+    },
+}
+
+/// A generator with its config, ready to render. Cloning is cheap for the engine (shared,
+/// immutable weights) and clones burn's module otherwise.
+#[derive(Clone, Debug)]
+pub struct Network {
+    config: GeneratorConfig,
+    imp: Imp,
+}
+
+impl Network {
+    /// Builds the network from weights read into memory.
+    pub fn from_weights(loaded: LoadedWeights, backend: &Backend) -> Result<(Self, WeightsInfo)> {
+        let LoadedWeights {
+            config,
+            tensors,
+            mut info,
+        } = loaded;
+        let (net, ignored) = Self::from_tensors(&config, tensors, backend)?;
+        info.ignored_keys = ignored;
+        Ok((net, info))
+    }
+
+    /// Builds the network for `config` from a state dict under the authors' keys; returns it
+    /// with the keys present but unused (the `.norm.` keys).
+    pub fn from_tensors(
+        config: &GeneratorConfig,
+        tensors: TensorMap,
+        backend: &Backend,
+    ) -> Result<(Self, Vec<String>)> {
+        let (imp, ignored) = match backend {
+            Backend::Engine => {
+                let (weights, ignored) = engine_weights(config, tensors)?;
+                let engine = uwnr_engine::Generator::new(&weights)?;
+                (Imp::Engine(Arc::new(engine)), ignored)
+            }
+            Backend::Burn(device) => {
+                let (generator, ignored) = generator_from_tensors(config, tensors, device)?;
+                (
+                    Imp::Burn {
+                        generator: Box::new(generator),
+                        device: device.clone(),
+                    },
+                    ignored,
+                )
+            }
+        };
+        Ok((
+            Self {
+                config: *config,
+                imp,
+            },
+            ignored,
+        ))
+    }
+
+    /// Loads a weights file (safetensors or PyTorch checkpoint).
+    pub fn load(path: &Path, backend: &Backend) -> Result<(Self, WeightsInfo)> {
+        Self::from_weights(read_weights(path)?, backend)
+    }
+
+    /// [`Network::load`] for weights held in memory.
+    pub fn load_from_bytes(bytes: &[u8], backend: &Backend) -> Result<(Self, WeightsInfo)> {
+        Self::from_weights(read_weights_from_bytes(bytes)?, backend)
+    }
+
+    /// The network of a burn module (e.g. the one being trained) on `backend`.
+    pub fn from_generator(
+        generator: &Generator,
+        config: &GeneratorConfig,
+        backend: &Backend,
+    ) -> Result<Self> {
+        match backend {
+            Backend::Burn(device) => Ok(Self {
+                config: *config,
+                imp: Imp::Burn {
+                    generator: Box::new(generator.clone()),
+                    device: device.clone(),
+                },
+            }),
+            Backend::Engine => {
+                let tensors = generator_to_tensors(generator, config)?;
+                Ok(Self::from_tensors(config, tensors, backend)?.0)
+            }
+        }
+    }
+
+    /// The generator's config.
+    #[must_use]
+    pub fn config(&self) -> &GeneratorConfig {
+        &self.config
+    }
+
+    /// The backend's name (`engine`, `flex`, `tch`).
+    #[must_use]
+    pub fn backend_name(&self) -> String {
+        match &self.imp {
+            Imp::Engine(_) => ENGINE_NAME.to_string(),
+            Imp::Burn { device, .. } => format!("{device:?}"),
+        }
+    }
+
+    /// Renders `clean` (3 channels) in the style of `light_field` (3 channels) using `depth`
+    /// (1 channel); all the same size. The output has that size too, values in [0, 1].
+    pub fn render(
+        &self,
+        clean: &Image,
+        depth: &Image,
+        light_field: &Image,
+        opts: &RenderOptions,
+    ) -> Result<Image> {
+        match &self.imp {
+            Imp::Engine(engine) => render_with(engine.as_ref(), clean, depth, light_field, opts),
+            Imp::Burn { generator, device } => render_with(
+                &BurnForward { generator, device },
+                clean,
+                depth,
+                light_field,
+                opts,
+            ),
+        }
+    }
+}
+
+/// The engine's weights for `config` from a state dict; every key but the unused norms must
+/// be consumed, with the shapes the config implies.
+pub fn engine_weights(
+    config: &GeneratorConfig,
+    tensors: TensorMap,
+) -> Result<(GeneratorWeights, Vec<String>)> {
+    config.validate()?;
+    let mut src = Source(tensors);
+    let mut cin = config.in_channels;
+    let mut downs = Vec::with_capacity(LEVELS);
+    for (level, prefix) in DOWN_PREFIXES.iter().enumerate() {
+        let c = config.level_width(level);
+        let r = c / ATTENTION_REDUCTION;
+        let b = format!("{prefix}.mpconv.2");
+        downs.push(uwnr_engine::DownWeights {
+            conv: src.conv(&format!("{prefix}.mpconv.0"), cin, c, 3)?,
+            block: uwnr_engine::BlockWeights {
+                conk3: src.conv(&format!("{b}.conk3"), c, c, 3)?,
+                conk1: src.conv(&format!("{b}.conk1"), c, c, 1)?,
+                sa_reduce: src.conv(&format!("{b}.SA.spatial_pool.0"), c, r, 1)?,
+                sa_expand: src.conv(&format!("{b}.SA.spatial_pool.2"), r, 1, 1)?,
+                ca_reduce: src.conv(&format!("{b}.CA.channel_map.0"), c, r, 1)?,
+                ca_expand: src.conv(&format!("{b}.CA.channel_map.2"), r, c, 1)?,
+            },
+        });
+        cin = c;
+    }
+    let mut ups = Vec::with_capacity(LEVELS);
+    for (i, prefix) in UP_PREFIXES.iter().enumerate() {
+        let c = config.level_width(LEVELS - 1 - i);
+        ups.push(src.conv(&format!("{prefix}.up.0"), c, 2 * c, 3)?);
+    }
+    let out = src.conv("out.0", config.decoder_out_width(), config.out_channels, 3)?;
+    let mut ignored = Vec::new();
+    for key in src.0.into_keys() {
+        if key.contains(UNUSED_NORM_MARKER) {
+            ignored.push(key);
+        } else {
+            return Err(ModelError::UnexpectedKey { key });
+        }
+    }
+    let levels =
+        |n: usize| ModelError::InvalidOptions(format!("{n} levels built, expected {LEVELS}"));
+    let weights = GeneratorWeights {
+        downs: downs.try_into().map_err(|v: Vec<_>| levels(v.len()))?,
+        ups: ups.try_into().map_err(|v: Vec<_>| levels(v.len()))?,
+        out,
+    };
+    Ok((weights, ignored))
+}
+
+struct Source(TensorMap);
+
+impl Source {
+    fn take(&mut self, key: &str, expected: &[usize]) -> Result<Vec<f32>> {
+        let NamedTensor { shape, data } =
+            self.0.remove(key).ok_or_else(|| ModelError::MissingKey {
+                key: key.to_string(),
+            })?;
+        if shape != expected {
+            return Err(ModelError::ShapeMismatch {
+                key: key.to_string(),
+                expected: expected.to_vec(),
+                got: shape,
+            });
+        }
+        Ok(data)
+    }
+
+    fn conv(&mut self, prefix: &str, cin: usize, cout: usize, k: usize) -> Result<ConvWeights> {
+        Ok(ConvWeights {
+            cout,
+            cin,
+            k,
+            weight: self.take(&format!("{prefix}.weight"), &[cout, cin, k, k])?,
+            bias: self.take(&format!("{prefix}.bias"), &[cout])?,
+        })
+    }
+}
