@@ -48,6 +48,7 @@ pub fn run(a: &DatasetArgs) -> Result<ExitCode> {
 
 fn renderer(a: &DatasetMakeArgs) -> Result<Renderer> {
     let have_refs = !a.references.is_empty();
+    super::method::refuse_inapplicable(&[a.method], &a.baseline, have_refs)?;
     if let Some(method) = super::method::baseline_method(a.method, &a.baseline, have_refs)? {
         return Ok(Renderer::Baseline(method));
     }
