@@ -247,7 +247,8 @@ fn train_row(
         spec.out.join("runs").join(name),
         spec.device.clone(),
     );
-    opts.resume = opts.run_dir.join("config.json").exists();
+    // A row killed before its first checkpoint left a folder that holds no run: it starts again.
+    opts.resume = uwnr_train::checkpoint::holds_run(&opts.run_dir);
     opts.vgg19.clone_from(&spec.vgg19);
     opts.limits = spec.limits;
     let summary = train(&cfg, &opts, stop, &mut |e| observer(Event::Train(name, e)))
