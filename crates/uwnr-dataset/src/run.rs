@@ -107,12 +107,26 @@ pub struct Summary {
     pub interrupted: bool,
     /// Every owned pair is in the manifest.
     pub complete: bool,
+    /// Why workers could not start (each one that did not adds a line). With none left, pairs
+    /// stay unmade without failing: the run is then incomplete.
+    pub worker_errors: Vec<String>,
+}
+
+impl Summary {
+    /// The run made every pair it owns, and nothing failed or stopped it: the exit code of the
+    /// command follows this, and `verify` reports missing pairs exactly when `complete` is false
+    /// and they are not listed as failed.
+    #[must_use]
+    pub fn ok(&self) -> bool {
+        self.complete && self.failures.is_empty() && !self.interrupted
+    }
 }
 
 enum Msg {
     Pair(Record),
     Failed(Failure),
     Note(String),
+    WorkerFailed(String),
 }
 
 /// Per-reference light fields, each computed once; `Err` for unreadable references.
@@ -303,7 +317,7 @@ pub fn generate(
                 let worker = match renderer.worker() {
                     Ok(w) => w,
                     Err(e) => {
-                        let _ = tx.send(Msg::Note(format!("a worker could not start: {e}")));
+                        let _ = tx.send(Msg::WorkerFailed(e.to_string()));
                         return;
                     }
                 };
@@ -341,6 +355,10 @@ pub fn generate(
                     summary.failures.push(f);
                 }
                 Msg::Note(n) => observer(Event::Note(&n)),
+                Msg::WorkerFailed(e) => {
+                    observer(Event::Note(&format!("a worker could not start: {e}")));
+                    summary.worker_errors.push(e);
+                }
             }
         }
     });
@@ -355,10 +373,9 @@ pub fn generate(
         write_failures(&out.join(failed_name(opts.shard)), &summary.failures)?;
     }
     if !summary.interrupted {
-        // Every owned pair was made or failed: put the manifest in pair order, so the folder is
-        // the same whatever the job count.
+        // Put the manifest in pair order, so the folder is the same whatever the job count.
         write_manifest(&manifest_path, &mut kept)?;
-        if opts.shard.is_none() && opts.gallery {
+        if opts.shard.is_none() && opts.gallery && summary.complete {
             crate::gallery::write(out, &kept)?;
         }
     }

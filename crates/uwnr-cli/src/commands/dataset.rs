@@ -143,7 +143,19 @@ fn make(a: &DatasetMakeArgs) -> Result<ExitCode> {
     if summary.complete && a.shard.is_none() {
         eprintln!("wrote {}", out.join("manifest.jsonl").display());
     }
-    Ok(if summary.failures.is_empty() {
+    if !summary.complete {
+        let made = summary.rendered + summary.skipped;
+        eprintln!(
+            "uwnr: incomplete: {made} of {} planned pairs made{}; run the same command again to finish",
+            summary.planned,
+            summary
+                .worker_errors
+                .first()
+                .map(|e| format!(" (a worker could not start: {e})"))
+                .unwrap_or_default()
+        );
+    }
+    Ok(if summary.ok() {
         ExitCode::SUCCESS
     } else {
         ExitCode::FAILURE
