@@ -245,6 +245,28 @@ pub struct ManifestContents {
     pub bad_lines: Vec<(usize, String)>,
     /// The file ended in the middle of a line (a run was killed while appending).
     pub torn_tail: bool,
+    /// Lines whose record names a file outside the dataset folder (an absolute path or one with
+    /// `..`): line number and the path. No crash writes such a line; it is refused, never read.
+    pub unsafe_paths: Vec<(usize, String)>,
+}
+
+impl ManifestContents {
+    /// Refuses the manifest at `path` if any line names a file outside the dataset folder.
+    pub fn refuse_unsafe_paths(&self, path: &Path) -> Result<()> {
+        match self.unsafe_paths.first() {
+            Some((line, file)) => Err(DatasetError::Corrupt {
+                path: path.to_path_buf(),
+                reason: unsafe_path_reason(*line, file),
+            }),
+            None => Ok(()),
+        }
+    }
+}
+
+/// The one-line reason for a manifest line that names a file outside the dataset folder.
+#[must_use]
+pub fn unsafe_path_reason(line: usize, file: &str) -> String {
+    format!("line {line}: file path {file:?} is absolute or leaves the dataset folder")
 }
 
 /// Reads a manifest; a missing file reads as empty.
@@ -274,7 +296,10 @@ pub fn read_manifest(path: &Path) -> Result<ManifestContents> {
             continue;
         }
         match serde_json::from_slice::<Record>(line) {
-            Ok(r) => out.records.push((line_no, r)),
+            Ok(r) => match r.files().find(|f| !uwnr_core::io::stays_inside(Path::new(f))) {
+                Some(f) => out.unsafe_paths.push((line_no, f.to_string())),
+                None => out.records.push((line_no, r)),
+            },
             Err(e) => out
                 .bad_lines
                 .push((line_no, format!("not a pair record: {e}"))),

@@ -119,6 +119,7 @@ pub fn merge(out: &Path, sources: &[PathBuf], gallery: bool) -> Result<MergeRepo
     let mut merged: BTreeMap<u64, (Record, PathBuf)> = BTreeMap::new();
     for (folder, name, _) in &manifests {
         let contents = read_manifest(&folder.join(name))?;
+        contents.refuse_unsafe_paths(&folder.join(name))?;
         if let Some((line, reason)) = contents.bad_lines.first() {
             return Err(DatasetError::Corrupt {
                 path: folder.join(name),

@@ -237,6 +237,7 @@ pub fn generate(
         planned.iter().map(|p| (p.id.as_str(), p)).collect();
     let manifest_path = out.join(manifest_name(opts.shard));
     let existing = read_manifest(&manifest_path)?;
+    existing.refuse_unsafe_paths(&manifest_path)?;
     let mut kept: Vec<Record> = Vec::new();
     let mut done: HashSet<String> = HashSet::new();
     let mut dropped = existing.bad_lines.len() + usize::from(existing.torn_tail);
