@@ -54,7 +54,7 @@ pub fn merge(out: &Path, sources: &[PathBuf], gallery: bool) -> Result<MergeRepo
             let theirs = Settings::read(folder)?;
             match &settings {
                 Some(ours) => {
-                    if let Some((field, a, b)) = ours.first_difference(&theirs) {
+                    if let Some((field, a, b)) = ours.first_difference(&theirs)? {
                         return Err(DatasetError::SettingsMismatch {
                             out: folder.clone(),
                             field,

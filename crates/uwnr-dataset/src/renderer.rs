@@ -62,17 +62,18 @@ impl Renderer {
         }
     }
 
-    /// The configuration recorded in the dataset settings.
-    #[must_use]
-    pub fn settings_params(&self) -> serde_json::Value {
-        match self {
-            Self::Network(n) => json!({
-                "weights": n.weights,
-                "fingerprint": n.fingerprint,
-                "config": n.config,
+    /// The configuration recorded in the dataset settings (compared on resume, so a value that
+    /// cannot be serialised is an error rather than a `null` that would match another).
+    pub fn settings_params(&self) -> Result<serde_json::Value> {
+        let value = match self {
+            Self::Network(n) => serde_json::to_value(NetworkParams {
+                weights: &n.weights,
+                fingerprint: &n.fingerprint,
+                config: &n.config,
             }),
-            Self::Baseline(m) => serde_json::to_value(m).unwrap_or(serde_json::Value::Null),
-        }
+            Self::Baseline(m) => serde_json::to_value(m),
+        };
+        value.map_err(|e| DatasetError::Invalid(format!("cannot record the method's settings: {e}")))
     }
 
     /// The light-field map references are turned into (the network's config says which; the
@@ -124,6 +125,14 @@ impl Renderer {
             Self::Baseline(m) => Worker::Baseline(m),
         })
     }
+}
+
+/// What the settings record of the network.
+#[derive(serde::Serialize)]
+struct NetworkParams<'a> {
+    weights: &'a str,
+    fingerprint: &'a str,
+    config: &'a GeneratorConfig,
 }
 
 /// A renderer as one worker thread holds it.

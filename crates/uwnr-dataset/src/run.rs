@@ -186,8 +186,10 @@ pub fn generate(
     let settings = Settings {
         format: FORMAT.into(),
         method: renderer.name().into(),
-        method_params: renderer.settings_params(),
-        depth_source: serde_json::to_value(&spec.depth).unwrap_or_default(),
+        method_params: renderer.settings_params()?,
+        depth_source: serde_json::to_value(&spec.depth).map_err(|e| {
+            DatasetError::Invalid(format!("cannot record the depth source: {e}"))
+        })?,
         per_image: spec.per_image,
         seed: spec.seed,
         size: spec.size,
@@ -205,7 +207,7 @@ pub fn generate(
     };
     match Settings::read(out) {
         Ok(existing) => {
-            if let Some((field, there, now)) = existing.first_difference(&settings) {
+            if let Some((field, there, now)) = existing.first_difference(&settings)? {
                 return Err(DatasetError::SettingsMismatch {
                     out: out.to_path_buf(),
                     field,

@@ -160,16 +160,23 @@ fn short_names(dirs: &[PathBuf]) -> Vec<String> {
 }
 
 /// The settings recorded in `experiment.json`: a re-run must match them.
-fn settings(spec: &DownstreamSpec, sets: &[TrainingSet]) -> serde_json::Value {
-    json!({
+fn settings(spec: &DownstreamSpec, sets: &[TrainingSet]) -> Result<serde_json::Value> {
+    let methods = sets
+        .iter()
+        .map(|s| {
+            let params = s
+                .renderer
+                .settings_params()
+                .map_err(|e| ExperimentError::Invalid(format!("{}: {e}", s.name)))?;
+            Ok(json!({ "name": s.name, "params": params }))
+        })
+        .collect::<Result<Vec<_>>>()?;
+    Ok(json!({
         "clean": paths(&spec.clean),
         "references": paths(&spec.references),
         "tests": paths(&spec.tests),
         "real": paths(&spec.real),
-        "methods": sets
-            .iter()
-            .map(|s| json!({ "name": s.name, "params": s.renderer.settings_params() }))
-            .collect::<Vec<_>>(),
+        "methods": methods,
         "per_image": spec.per_image,
         "size": spec.size.to_string(),
         "seed": spec.seed,
@@ -178,7 +185,7 @@ fn settings(spec: &DownstreamSpec, sets: &[TrainingSet]) -> serde_json::Value {
         "budget": spec.budget,
         "eval_max_side": spec.eval_max_side,
         "vgg19": spec.vgg19.as_ref().map(|p| p.display().to_string()),
-    })
+    }))
 }
 
 /// Checks the output folder's recorded settings against this run's (or records them).
@@ -406,7 +413,7 @@ pub fn run_downstream(
 ) -> Result<Results> {
     validate(spec, sets)?;
     std::fs::create_dir_all(&spec.out).map_err(|e| ExperimentError::io(&spec.out, e))?;
-    let settings = settings(spec, sets);
+    let settings = settings(spec, sets)?;
     check_settings(&spec.out, &settings)?;
 
     let test_names = short_names(&spec.tests);
