@@ -138,9 +138,8 @@ impl Settings {
 /// resume must not be accepted because nothing could be compared.
 pub fn first_difference<T: Serialize>(a: &T, b: &T) -> Result<Option<(String, String, String)>> {
     let json = |v: &T| {
-        serde_json::to_value(v).map_err(|e| {
-            DatasetError::Invalid(format!("cannot compare the dataset settings: {e}"))
-        })
+        serde_json::to_value(v)
+            .map_err(|e| DatasetError::Invalid(format!("cannot compare the dataset settings: {e}")))
     };
     let (a, b) = (json(a)?, json(b)?);
     let (Some(ao), Some(bo)) = (a.as_object(), b.as_object()) else {
@@ -310,7 +309,10 @@ pub fn read_manifest(path: &Path) -> Result<ManifestContents> {
             continue;
         }
         match serde_json::from_slice::<Record>(line) {
-            Ok(r) => match r.files().find(|f| !uwnr_core::io::stays_inside(Path::new(f))) {
+            Ok(r) => match r
+                .files()
+                .find(|f| !uwnr_core::io::stays_inside(Path::new(f)))
+            {
                 Some(f) => out.unsafe_paths.push((line_no, f.to_string())),
                 None => out.records.push((line_no, r)),
             },
@@ -488,10 +490,16 @@ mod tests {
         assert_eq!(m.records.len(), 1);
         assert_eq!(
             m.unsafe_paths,
-            [(2, "../secret.txt".to_string()), (3, "/etc/passwd".to_string())]
+            [
+                (2, "../secret.txt".to_string()),
+                (3, "/etc/passwd".to_string())
+            ]
         );
         let err = m.refuse_unsafe_paths(&path).unwrap_err().to_string();
-        assert!(err.contains("manifest.jsonl") && err.contains("line 2"), "{err}");
+        assert!(
+            err.contains("manifest.jsonl") && err.contains("line 2"),
+            "{err}"
+        );
         assert_eq!(err.lines().count(), 1);
     }
 

@@ -73,7 +73,8 @@ impl Renderer {
             }),
             Self::Baseline(m) => serde_json::to_value(m),
         };
-        value.map_err(|e| DatasetError::Invalid(format!("cannot record the method's settings: {e}")))
+        value
+            .map_err(|e| DatasetError::Invalid(format!("cannot record the method's settings: {e}")))
     }
 
     /// The light-field map references are turned into (the network's config says which; the
@@ -273,7 +274,12 @@ mod tests {
         assert_eq!(summary.rendered, 0);
         assert!(summary.failures.is_empty() && !summary.interrupted);
         assert!(!summary.complete && !summary.ok());
-        assert_eq!(summary.worker_errors.len(), 2, "{:?}", summary.worker_errors);
+        assert_eq!(
+            summary.worker_errors.len(),
+            2,
+            "{:?}",
+            summary.worker_errors
+        );
         let report = crate::verify(&out, &|_, _| {}).unwrap();
         assert!(!report.ok());
         assert!(

@@ -187,9 +187,8 @@ pub fn generate(
         format: FORMAT.into(),
         method: renderer.name().into(),
         method_params: renderer.settings_params()?,
-        depth_source: serde_json::to_value(&spec.depth).map_err(|e| {
-            DatasetError::Invalid(format!("cannot record the depth source: {e}"))
-        })?,
+        depth_source: serde_json::to_value(&spec.depth)
+            .map_err(|e| DatasetError::Invalid(format!("cannot record the depth source: {e}")))?,
         per_image: spec.per_image,
         seed: spec.seed,
         size: spec.size,

@@ -421,7 +421,12 @@ fn a_strongly_cast_reference_gives_a_clearly_cast_seathru_render() {
         ..SeathruParams::default()
     });
     // Cyan-blue, blue-green and green casts, as in real underwater photos (red nearly gone).
-    let tints = [[0.05, 0.5, 0.9], [0.1, 0.7, 0.7], [0.15, 0.6, 0.35], [0.02, 0.35, 0.6]];
+    let tints = [
+        [0.05, 0.5, 0.9],
+        [0.1, 0.7, 0.7],
+        [0.15, 0.6, 0.35],
+        [0.02, 0.35, 0.6],
+    ];
     for (i, tint) in tints.into_iter().enumerate() {
         let reference = cast_reference(&mut rng, tint);
         // A colourful, balanced clean photo and a depth that grows towards the top.
@@ -441,7 +446,10 @@ fn a_strongly_cast_reference_gives_a_clearly_cast_seathru_render() {
             let change = (0..3)
                 .map(|c| {
                     let (a, b) = (out.image.plane(c), clean.plane(c));
-                    a.iter().zip(b).map(|(x, y)| f64::from((x - y).abs())).sum::<f64>()
+                    a.iter()
+                        .zip(b)
+                        .map(|(x, y)| f64::from((x - y).abs()))
+                        .sum::<f64>()
                         / a.len() as f64
                 })
                 .sum::<f64>()
@@ -453,8 +461,8 @@ fn a_strongly_cast_reference_gives_a_clearly_cast_seathru_render() {
                 channel_mean(&out.image, 1),
                 channel_mean(&out.image, 2),
             );
-            let clean_gap = channel_mean(&clean, 1).max(channel_mean(&clean, 2))
-                - channel_mean(&clean, 0);
+            let clean_gap =
+                channel_mean(&clean, 1).max(channel_mean(&clean, 2)) - channel_mean(&clean, 0);
             assert!(
                 change * 255.0 > 15.0,
                 "tint {i} seed {seed}: mean change {:.1}/255 ({})",

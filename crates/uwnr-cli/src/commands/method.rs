@@ -29,7 +29,11 @@ pub fn refuse_inapplicable(
     };
     // (flag, is it set, the methods it applies to)
     let flags: [(&str, bool, &[MethodArg]); 9] = [
-        ("--method-config", o.method_config.is_some(), &[Jerlov, Uisa, Seathru, Reinhard]),
+        (
+            "--method-config",
+            o.method_config.is_some(),
+            &[Jerlov, Uisa, Seathru, Reinhard],
+        ),
         ("--water-type", o.water_type.is_some(), &[Jerlov]),
         ("--depth-scale", o.depth_scale.is_some(), &[Jerlov, Seathru]),
         ("--seathru", o.seathru.is_some(), &[Seathru]),

@@ -439,23 +439,57 @@ fn options_that_do_not_apply_to_the_method_are_refused() {
     };
     let cases: [(&[&str], &str, &str); 7] = [
         (&["--water-type", "3C"], "--water-type", "uwnr"),
-        (&["--method", "uisa", "--water-type", "3C"], "--water-type", "uisa"),
-        (&["--method", "jerlov", "--reinhard-space", "lab"], "--reinhard-space", "jerlov"),
-        (&["--method", "seathru", "--mean-only"], "--mean-only", "seathru"),
         (
-            &["--method", "seathru", "--seathru", "given", "--background-depth", "3,4"],
+            &["--method", "uisa", "--water-type", "3C"],
+            "--water-type",
+            "uisa",
+        ),
+        (
+            &["--method", "jerlov", "--reinhard-space", "lab"],
+            "--reinhard-space",
+            "jerlov",
+        ),
+        (
+            &["--method", "seathru", "--mean-only"],
+            "--mean-only",
+            "seathru",
+        ),
+        (
+            &[
+                "--method",
+                "seathru",
+                "--seathru",
+                "given",
+                "--background-depth",
+                "3,4",
+            ],
             "--background-depth",
             "--seathru given",
         ),
-        (&["--method", "reinhard", "--beta-d", "1,1,1"], "--beta-d", "reinhard"),
-        (&["--method", "seathru", "--depth-scale", "1,2"], "--depth-scale", "reference"),
+        (
+            &["--method", "reinhard", "--beta-d", "1,1,1"],
+            "--beta-d",
+            "reinhard",
+        ),
+        (
+            &["--method", "seathru", "--depth-scale", "1,2"],
+            "--depth-scale",
+            "reference",
+        ),
     ];
     for (extra, flag, method) in cases {
         let o = base(extra);
         let err = stderr(&o);
         assert!(!o.status.success(), "{extra:?} was accepted");
-        assert_eq!(err.trim().lines().count(), 1, "{extra:?}: not one line: {err}");
-        assert!(err.contains(flag) && err.contains(method), "{extra:?}: {err}");
+        assert_eq!(
+            err.trim().lines().count(),
+            1,
+            "{extra:?}: not one line: {err}"
+        );
+        assert!(
+            err.contains(flag) && err.contains(method),
+            "{extra:?}: {err}"
+        );
         assert!(!out.exists(), "{extra:?} rendered");
     }
     // The enums refuse unknown values at parse time and accept the paper's spelling in any case.
@@ -464,6 +498,12 @@ fn options_that_do_not_apply_to_the_method_are_refused() {
     assert!(stderr(&o).contains("4C"), "{}", stderr(&o));
     let o = base(&["--method", "jerlov", "--water-type", "3c", "--seed", "1"]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let o = base(&["--method", "reinhard", "--reinhard-space", "cielab", "--mean-only"]);
+    let o = base(&[
+        "--method",
+        "reinhard",
+        "--reinhard-space",
+        "cielab",
+        "--mean-only",
+    ]);
     assert!(o.status.success(), "{}", stderr(&o));
 }

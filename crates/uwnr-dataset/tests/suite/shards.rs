@@ -98,7 +98,11 @@ fn manifest_paths_outside_the_folder_are_refused_by_merge_verify_and_resume() {
     let (clean, refs) = inputs(tmp.path(), 4, 2);
     let sp = spec(&clean, &refs, 1);
     std::fs::write(tmp.path().join("secret.txt"), b"not for the dataset").unwrap();
-    for crafted in ["../secret.txt", "underwater/../../../../x.png", "/etc/hostname"] {
+    for crafted in [
+        "../secret.txt",
+        "underwater/../../../../x.png",
+        "/etc/hostname",
+    ] {
         let shard = tmp.path().join("shard0");
         let _ = std::fs::remove_dir_all(&shard);
         let mut o = opts(1);
@@ -123,7 +127,10 @@ fn manifest_paths_outside_the_folder_are_refused_by_merge_verify_and_resume() {
         let report = uwnr_dataset::verify(&shard, &|_, _| {}).unwrap();
         assert!(!report.ok());
         assert!(
-            report.problems.iter().any(|p| p.contains("line 1") && p.contains(crafted)),
+            report
+                .problems
+                .iter()
+                .any(|p| p.contains("line 1") && p.contains(crafted)),
             "{:?}",
             report.problems
         );
