@@ -309,13 +309,16 @@ pub fn read_manifest(path: &Path) -> Result<ManifestContents> {
             continue;
         }
         match serde_json::from_slice::<Record>(line) {
-            Ok(r) => match r
-                .files()
-                .find(|f| !uwnr_core::io::stays_inside(Path::new(f)))
-            {
-                Some(f) => out.unsafe_paths.push((line_no, f.to_string())),
-                None => out.records.push((line_no, r)),
-            },
+            Ok(r) => {
+                let outside = r
+                    .files()
+                    .find(|f| !uwnr_core::io::stays_inside(Path::new(f)))
+                    .map(str::to_string);
+                match outside {
+                    Some(f) => out.unsafe_paths.push((line_no, f)),
+                    None => out.records.push((line_no, r)),
+                }
+            }
             Err(e) => out
                 .bad_lines
                 .push((line_no, format!("not a pair record: {e}"))),

@@ -125,7 +125,6 @@ impl Summary {
 enum Msg {
     Pair(Record),
     Failed(Failure),
-    Note(String),
     WorkerFailed(String),
 }
 
@@ -356,7 +355,6 @@ pub fn generate(
                     observer(Event::Failed(&f));
                     summary.failures.push(f);
                 }
-                Msg::Note(n) => observer(Event::Note(&n)),
                 Msg::WorkerFailed(e) => {
                     observer(Event::Note(&format!("a worker could not start: {e}")));
                     summary.worker_errors.push(e);

@@ -423,14 +423,19 @@ fn convert_writes_half_precision_weights_that_render_alike() {
 fn options_that_do_not_apply_to_the_method_are_refused() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out.png");
+    let (clean, reference, w) = (
+        sample("clean-statues.jpg"),
+        sample("ref-blue.jpg"),
+        weights(),
+    );
     let base = |extra: &[&str]| {
         let mut args = vec![
             "render",
-            s(&sample("clean-statues.jpg")),
+            s(&clean),
             "--reference",
-            s(&sample("ref-blue.jpg")),
+            s(&reference),
             "--weights",
-            s(&weights()),
+            s(&w),
             "--output",
             s(&out),
         ];
