@@ -51,8 +51,8 @@ use uwnr_train::checkpoint::{
 use uwnr_train::csvlog::{CsvLog, VAL_HEADER};
 use uwnr_train::losses::{Perceptual, ssim_loss};
 use uwnr_train::plot::{LossSeries, TOTAL_COLOUR, draw_loss_curves, series_colour};
-pub use uwnr_train::trainer::{CONFIG_FILE, CURVES_FILE, DATA_REPORT_FILE, METRICS_FILE, VAL_FILE};
 use uwnr_train::trainer::claim_run_folder;
+pub use uwnr_train::trainer::{CONFIG_FILE, CURVES_FILE, DATA_REPORT_FILE, METRICS_FILE, VAL_FILE};
 use uwnr_train::{Vgg19Features, init_seeded};
 
 use crate::data::{self, TrainPair, ValPair};
@@ -365,6 +365,9 @@ pub fn train(
         &opts.limits,
     )?;
     let data::Data { pairs, val, report } = data;
+    // Shown before anything is checked, so a refused start still lists what was skipped.
+    let report = report.to_text();
+    observer(EnhanceEvent::Message(report.trim_end()));
     let steps_per_epoch = pairs.len() / cfg.batch_size;
     if steps_per_epoch == 0 {
         return Err(TrainError::NoData(format!(
@@ -378,9 +381,7 @@ pub fn train(
     if !opts.resume {
         claim_run_folder(run, &cfg.to_json()?)?;
     }
-    let report = report.to_text();
     write_file(&run.join(DATA_REPORT_FILE), &report)?;
-    observer(EnhanceEvent::Message(report.trim_end()));
     let total_steps = cfg.total_steps.map_or(cfg.epochs * steps_per_epoch, |t| {
         t.min(cfg.epochs * steps_per_epoch)
     });

@@ -196,6 +196,9 @@ pub fn train(
         },
     )?;
     let TrainData { pairs, val, report } = data;
+    // Shown before anything is checked, so a refused start still lists what was skipped.
+    let report = report.to_text();
+    observer(Event::Message(report.trim_end()));
     let steps_per_epoch = pairs.len() / cfg.batch_size;
     if steps_per_epoch == 0 {
         return Err(TrainError::NoData(format!(
@@ -208,9 +211,7 @@ pub fn train(
     if !opts.resume {
         claim_run_folder(run, &cfg.to_json()?)?;
     }
-    let report = report.to_text();
     write_file(&run.join(DATA_REPORT_FILE), &report)?;
-    observer(Event::Message(report.trim_end()));
     let total_steps = cfg.epochs * steps_per_epoch;
     let val_lf: Vec<Image> = val
         .iter()
