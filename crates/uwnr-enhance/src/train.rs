@@ -443,8 +443,9 @@ pub fn train(
         metrics: &metrics,
         val_log: &val_log,
         perceptual_name: match perceptual {
-            Perceptual::Ssim => "PERCEPTUAL (1 - SSIM)",
-            _ => "PERCEPTUAL",
+            Perceptual::Vgg(_) => "perceptual (VGG19)",
+            Perceptual::Ssim => "perceptual (1 - SSIM)",
+            Perceptual::Off => "perceptual (off)",
         },
     };
     let mut summary = EnhanceTrainSummary {
@@ -744,7 +745,7 @@ impl Ctx<'_> {
                 points: column(4),
             },
             LossSeries {
-                name: "TOTAL".into(),
+                name: "total".into(),
                 colour: TOTAL_COLOUR,
                 points: column(5),
             },

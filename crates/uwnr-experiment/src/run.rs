@@ -10,7 +10,6 @@ use serde_json::json;
 use uwnr_core::Image;
 use uwnr_core::io::{DecodeLimits, load_rgb, write_atomic};
 use uwnr_core::resize::resize_bilinear;
-use uwnr_core::sheet::contact_sheet;
 use uwnr_dataset::{Renderer, RunOptions, Size, Spec};
 use uwnr_depth::DepthSource;
 use uwnr_enhance::eval::{EvalReport, evaluate_dir};
@@ -342,14 +341,15 @@ fn fit_side(image: Image, max_side: Option<usize>) -> Result<Image> {
 }
 
 /// `examples.png`: for the first test images of each set, the input, every trained network's
-/// output and the clean reference, left to right in table order.
+/// output and the clean reference, left to right in table order, under column headers naming
+/// the training set of each network; each row is labelled with its test set and image.
 fn examples_sheet(
     spec: &DownstreamSpec,
     nets: &[(String, ShallowUwnet)],
     path: &Path,
 ) -> Result<()> {
-    let mut rows: Vec<Vec<Image>> = Vec::new();
-    for dir in &spec.tests {
+    let mut rows: Vec<(String, Vec<Image>)> = Vec::new();
+    for (dir, set) in spec.tests.iter().zip(short_names(&spec.tests)) {
         let pairs = discover_pairs(dir, Some(spec.examples))
             .map_err(|e| ExperimentError::Invalid(format!("{}: {e}", dir.display())))?;
         for p in &pairs.pairs {
@@ -360,15 +360,33 @@ fn examples_sheet(
                 row.push(enhance(net, &input, &spec.device).map_err(enhance_err(name))?);
             }
             row.push(clean);
-            rows.push(row);
+            rows.push((format!("{set}: {}", p.name), row));
         }
     }
     if rows.is_empty() {
         return Ok(());
     }
-    let refs: Vec<Vec<&Image>> = rows.iter().map(|r| r.iter().collect()).collect();
-    let sheet = contact_sheet(&refs, EXAMPLE_THUMB)?;
-    Ok(uwnr_core::io::save_rgb(path, &sheet)?)
+    let columns: Vec<String> = std::iter::once("input (underwater)".to_string())
+        .chain(nets.iter().map(|(name, _)| format!("trained on {name}")))
+        .chain(std::iter::once("clean reference".to_string()))
+        .collect();
+    let sheet = uwnr_figures::Sheet {
+        title: Some("Shallow-UWnet outputs on the test images".into()),
+        columns,
+        rows: rows
+            .iter()
+            .map(|(label, images)| uwnr_figures::SheetRow {
+                label: Some(label.clone()),
+                images: images.iter().collect(),
+            })
+            .collect(),
+        thumb: EXAMPLE_THUMB,
+    };
+    let img = uwnr_figures::draw_sheet(&sheet).map_err(|source| ExperimentError::Figure {
+        what: EXAMPLES_PNG,
+        source,
+    })?;
+    Ok(uwnr_core::io::save_rgb(path, &img)?)
 }
 
 fn validate(spec: &DownstreamSpec, sets: &[TrainingSet]) -> Result<()> {

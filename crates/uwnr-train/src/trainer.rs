@@ -446,7 +446,7 @@ impl Ctx<'_> {
                 .map_err(|e| metric_err(&v.name, &e))?;
             per_pair.push((v.name.clone(), p, s));
             if sheet.len() < self.cfg.val_sheet_pairs {
-                sheet.push((v.clean.clone(), out, v.underwater.clone()));
+                sheet.push((v.name.clone(), v.clean.clone(), out, v.underwater.clone()));
             }
         }
         let n = per_pair.len().max(1) as f64;
