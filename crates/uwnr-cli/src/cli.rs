@@ -160,7 +160,8 @@ pub enum SeathruSource {
     Given,
 }
 
-/// Jerlov water types of `--water-type`, as the paper names them.
+/// Jerlov water types of `--water-type`, as the paper names them (Roman numerals, not acronyms).
+#[allow(clippy::upper_case_acronyms)]
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum WaterTypeArg {
     /// Oceanic I (clearest).
