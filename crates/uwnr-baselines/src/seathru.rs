@@ -27,11 +27,24 @@
 //!   instead: the reference's water is a point of the Jerlov manifold whose background
 //!   `exp(−β^D·D)` has the hue (chromaticity) of the measured `B^∞`. Position and `D` are fitted on
 //!   a grid; `β^D` follows, and `β^B` is drawn as in the sampled mode. The absolute brightness of
-//!   `B^∞` is the measured one.
+//!   `B^∞` is the measured one. `D` is the distance at which the water alone takes on the
+//!   reference's hue, so it is also the render's distance scale (`s = D`: the farthest pixels,
+//!   `d = 1`, lie at that distance). `D` is searched over (1, 60] m on a log grid
+//!   ([`FIT_BACKGROUND_DEPTH_M`]).
 //!
-//! The distance scale `s` is drawn from (0.5, 15] m by default, UWCNN's range, so the two
-//! physical baselines see the same ranges. Draw order from the seeded generator: the Jerlov
-//! position (sampled mode), the three `k_c`, `D` (sampled mode), `s`.
+//!   Why both: a strong cast (real blue or green water, red nearly gone) is more saturated than
+//!   any manifold background at UWCNN's 3-5 m. Searched only there, the least-squares hue fit
+//!   pinned `D` at 5 m and fell back to the clearest water (type I, `β^D_G ≈ 0.04`,
+//!   `β^D_B ≈ 0.02` per metre), and with `s` drawn independently (as little as 0.5 m) the
+//!   render barely changed: a clean photo rendered after a cyan reference moved by about
+//!   3-13/255 where the other methods move it by 20-40. Matching the hue over a range where it
+//!   can be reached, and placing the scene at the distance that hue implies, makes a strongly
+//!   cast reference give a clearly cast render.
+//!
+//! The distance scale `s` is drawn from (0.5, 15] m by default (given and sampled modes),
+//! UWCNN's range, so the two physical baselines see the same ranges. Draw order from the seeded
+//! generator: the Jerlov position (sampled mode), the three `k_c`, `D` (sampled mode), `s`
+//! (given and sampled modes).
 
 use serde::{Deserialize, Serialize};
 use serde_json::json;
@@ -56,8 +69,11 @@ pub const BACKSCATTER_RATIO: Range = Range::new(0.7, 1.3);
 const MAX_BETA_PER_M: f64 = 10.0;
 /// Grid step of the manifold position when fitting a reference.
 const FIT_POSITION_STEP: f64 = 0.01;
-/// Number of background depths tried when fitting a reference.
-const FIT_DEPTH_STEPS: usize = 21;
+/// Number of background depths tried when fitting a reference (log-spaced over the range).
+const FIT_DEPTH_STEPS: usize = 61;
+/// Range of the background distance `D` searched when fitting a reference, metres: wide enough
+/// for the hue of strongly cast water (see the module docs).
+pub const FIT_BACKGROUND_DEPTH_M: Range = Range::new(1.0, 60.0);
 
 /// Coefficients set by hand.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -113,7 +129,8 @@ impl Default for SampledCoefficients {
 pub struct ReferenceCoefficients {
     /// Range of `k_c = β^B_c/β^D_c`, drawn per channel.
     pub backscatter_ratio: Range,
-    /// Range of background depths `D` (m) searched when matching the hue of `B^∞`.
+    /// Range of background distances `D` (m) searched when matching the hue of `B^∞`; the
+    /// fitted `D` is also the render's distance scale.
     pub background_depth: Range,
     /// How the background light is read off the quadtree's final region.
     pub background_pick: BackgroundPick,
@@ -125,7 +142,7 @@ impl Default for ReferenceCoefficients {
     fn default() -> Self {
         Self {
             backscatter_ratio: BACKSCATTER_RATIO,
-            background_depth: UWCNN_BACKGROUND_DEPTH_M,
+            background_depth: FIT_BACKGROUND_DEPTH_M,
             background_pick: BackgroundPick::Mean,
             min_region_fraction: SUID_MIN_REGION_FRACTION,
         }
@@ -157,7 +174,7 @@ pub struct SeathruParams {
     /// Where `β^D`, `β^B` and `B^∞` come from.
     pub coefficients: SeathruCoefficients,
     /// Range of the distance scale `s` (m): the metric range is `z = d·s`. Default (0.5, 15],
-    /// UWCNN's range.
+    /// UWCNN's range. Not used with coefficients from a reference, whose fit gives `s`.
     pub depth_scale: Range,
 }
 
@@ -251,18 +268,21 @@ fn chromaticity(v: [f64; 3]) -> [f64; 3] {
 }
 
 /// The manifold position and background depth whose background `exp(−β^D·D)` has the hue of
-/// `b_inf` (least squares on chromaticities, grid search), with the squared residual.
+/// `b_inf` (least squares on chromaticities, grid search; depths log-spaced over `depths`), with
+/// the squared residual.
 #[must_use]
 pub fn fit_water_to_background(b_inf: [f64; 3], depths: Range) -> (f64, f64, f64) {
     let target = chromaticity(b_inf);
     let mut best = (0.0, depths.max, f64::INFINITY);
     let positions = (JERLOV_LAST_POSITION / FIT_POSITION_STEP).round() as usize;
+    // A log grid resolves short distances as finely, relative to their size, as long ones.
+    let lo = depths.min.max(1e-3);
+    let ratio = depths.max.max(lo) / lo;
     for i in 0..=positions {
         let u = i as f64 * FIT_POSITION_STEP;
         let beta = jerlov_manifold(u);
         for k in 0..FIT_DEPTH_STEPS {
-            let depth =
-                depths.min + (depths.max - depths.min) * k as f64 / (FIT_DEPTH_STEPS - 1) as f64;
+            let depth = lo * ratio.powf(k as f64 / (FIT_DEPTH_STEPS - 1) as f64);
             let hue = chromaticity(beta.map(|b| (-b * depth).exp()));
             let err: f64 = (0..3).map(|c| (hue[c] - target[c]).powi(2)).sum();
             if err < best.2 {
@@ -278,6 +298,8 @@ pub(crate) fn render(params: &SeathruParams, input: &RenderInput, seed: u64) -> 
     params.validate()?;
     let depth = checked_depth(input.clean, input.depth)?;
     let mut rng = rng_from_seed(seed);
+    // `Some(s)` where the coefficients fix the distance scale (a reference's fit).
+    let mut fitted_scale = None;
     let (beta_d, beta_b, b_inf, source) = match &params.coefficients {
         SeathruCoefficients::Given(g) => (g.beta_d, g.beta_b, g.b_inf, json!({ "mode": "given" })),
         SeathruCoefficients::Sampled(s) => {
@@ -310,6 +332,7 @@ pub(crate) fn render(params: &SeathruParams, input: &RenderInput, seed: u64) -> 
             let beta_d = jerlov_manifold(position);
             let k: [f64; 3] = std::array::from_fn(|_| r.backscatter_ratio.sample(&mut rng));
             let beta_b = std::array::from_fn(|c| k[c] * beta_d[c]);
+            fitted_scale = Some(background_depth);
             let source = json!({
                 "mode": "from_reference",
                 "jerlov_position": round6(position),
@@ -322,7 +345,10 @@ pub(crate) fn render(params: &SeathruParams, input: &RenderInput, seed: u64) -> 
             (beta_d, beta_b, b_inf, source)
         }
     };
-    let depth_scale = params.depth_scale.sample(&mut rng);
+    let depth_scale = match fitted_scale {
+        Some(s) => s,
+        None => params.depth_scale.sample(&mut rng),
+    };
     let att = beta_d.map(|b| b * depth_scale);
     let bs = beta_b.map(|b| b * depth_scale);
     let image = form_image(input.clean, &depth, [1.0; 3], att, bs, b_inf)?;

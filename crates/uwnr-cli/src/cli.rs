@@ -163,16 +163,94 @@ pub enum SeathruSource {
     Given,
 }
 
-/// Options of the physical and statistical baselines (ignored by `--method uwnr`).
+/// Jerlov water types of `--water-type`, as the paper names them (Roman numerals, not acronyms).
+#[allow(clippy::upper_case_acronyms)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum WaterTypeArg {
+    /// Oceanic I (clearest).
+    #[value(name = "I")]
+    I,
+    /// Oceanic IA.
+    #[value(name = "IA")]
+    IA,
+    /// Oceanic IB.
+    #[value(name = "IB")]
+    IB,
+    /// Oceanic II.
+    #[value(name = "II")]
+    II,
+    /// Oceanic III.
+    #[value(name = "III")]
+    III,
+    /// Coastal 1C.
+    #[value(name = "1C")]
+    C1,
+    /// Coastal 3C.
+    #[value(name = "3C")]
+    C3,
+    /// Coastal 5C.
+    #[value(name = "5C")]
+    C5,
+    /// Coastal 7C.
+    #[value(name = "7C")]
+    C7,
+    /// Coastal 9C (murkiest).
+    #[value(name = "9C")]
+    C9,
+}
+
+impl From<WaterTypeArg> for uwnr_baselines::WaterType {
+    fn from(w: WaterTypeArg) -> Self {
+        use uwnr_baselines::WaterType as W;
+        match w {
+            WaterTypeArg::I => W::I,
+            WaterTypeArg::IA => W::IA,
+            WaterTypeArg::IB => W::IB,
+            WaterTypeArg::II => W::II,
+            WaterTypeArg::III => W::III,
+            WaterTypeArg::C1 => W::C1,
+            WaterTypeArg::C3 => W::C3,
+            WaterTypeArg::C5 => W::C5,
+            WaterTypeArg::C7 => W::C7,
+            WaterTypeArg::C9 => W::C9,
+        }
+    }
+}
+
+/// Colour spaces of `--reinhard-space`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum ReinhardSpaceArg {
+    /// Ruderman's lαβ, as in the paper.
+    #[value(name = "lalphabeta", alias = "lab-ruderman")]
+    LAlphaBeta,
+    /// CIE L*a*b* (D65).
+    #[value(name = "lab", alias = "cielab")]
+    Lab,
+    /// The stored RGB values.
+    Rgb,
+}
+
+impl From<ReinhardSpaceArg> for uwnr_baselines::ColourSpace {
+    fn from(s: ReinhardSpaceArg) -> Self {
+        match s {
+            ReinhardSpaceArg::LAlphaBeta => Self::LAlphaBeta,
+            ReinhardSpaceArg::Lab => Self::Lab,
+            ReinhardSpaceArg::Rgb => Self::Rgb,
+        }
+    }
+}
+
+/// Options of the physical and statistical baselines; each is refused by a method it does not
+/// apply to.
 #[derive(Debug, Clone, Args)]
 pub struct BaselineOpts {
     /// Full parameters of the baseline as JSON (e.g. `{"method":"jerlov","water_type":"3C"}`);
     /// the flags below override what it sets.
     #[arg(long, value_name = "FILE.json")]
     pub method_config: Option<PathBuf>,
-    /// Jerlov water type (I, IA, IB, II, III, 1C, 3C, 5C, 7C, 9C); random per image if absent.
-    #[arg(long, value_name = "TYPE")]
-    pub water_type: Option<String>,
+    /// Jerlov water type (with --method jerlov); random per image if absent.
+    #[arg(long, value_enum, ignore_case = true, value_name = "TYPE")]
+    pub water_type: Option<WaterTypeArg>,
     /// Range MIN,MAX (metres) that depth in [0,1] is scaled to, sampled per image.
     #[arg(long, value_name = "MIN,MAX", value_parser = parse_range)]
     pub depth_scale: Option<(f64, f64)>,
@@ -191,9 +269,9 @@ pub struct BaselineOpts {
     /// Sea-thru veiling light R,G,B in [0,1], with --seathru given.
     #[arg(long, value_name = "R,G,B", value_parser = parse_triple)]
     pub b_inf: Option<[f64; 3]>,
-    /// Colour space of the Reinhard transfer: lalphabeta (the paper's), lab (CIELAB) or rgb.
-    #[arg(long, value_name = "SPACE")]
-    pub reinhard_space: Option<String>,
+    /// Colour space of the Reinhard transfer (with --method reinhard).
+    #[arg(long, value_enum, ignore_case = true, value_name = "SPACE")]
+    pub reinhard_space: Option<ReinhardSpaceArg>,
     /// Reinhard: shift the channel means only, without matching the spread (with
     /// `--reinhard-space rgb`, the plain per-channel mean shift baseline).
     #[arg(long)]

@@ -195,6 +195,24 @@ pub fn is_image_path(path: &Path) -> bool {
         .is_some_and(|e| IMAGE_EXTENSIONS.iter().any(|x| e.eq_ignore_ascii_case(x)))
 }
 
+/// Whether `rel`, a path read from a file (a manifest line, a settings file), names something
+/// inside the folder it is relative to: not empty, not absolute, no root or drive prefix and no
+/// `..` component. Paths that fail it must be refused before they are joined onto a folder: a
+/// crafted `../secret.txt` would otherwise read or write outside it.
+#[must_use]
+pub fn stays_inside(rel: &Path) -> bool {
+    use std::path::Component;
+    let mut normal = false;
+    for c in rel.components() {
+        match c {
+            Component::Normal(_) => normal = true,
+            Component::CurDir => {}
+            Component::ParentDir | Component::RootDir | Component::Prefix(_) => return false,
+        }
+    }
+    normal
+}
+
 /// Writes a file atomically: `write` fills a temporary file in the same directory, which is then
 /// renamed to `path`. On any failure the temporary file is removed and `path` is left as it was.
 pub fn write_atomic(

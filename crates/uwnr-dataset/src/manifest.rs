@@ -128,19 +128,32 @@ impl Settings {
     }
 
     /// The first field in which `other` differs, with both values shown briefly.
-    #[must_use]
-    pub fn first_difference(&self, other: &Self) -> Option<(String, String, String)> {
-        let a = serde_json::to_value(self).ok()?;
-        let b = serde_json::to_value(other).ok()?;
-        let (a, b) = (a.as_object()?, b.as_object()?);
-        for (key, va) in a {
-            let vb = b.get(key).unwrap_or(&serde_json::Value::Null);
-            if va != vb {
-                return Some((key.clone(), brief(va), brief(vb)));
-            }
-        }
-        None
+    pub fn first_difference(&self, other: &Self) -> Result<Option<(String, String, String)>> {
+        first_difference(self, other)
     }
+}
+
+/// The first top-level field in which two settings differ, with both values shown briefly, as
+/// their JSON forms compare. Settings that cannot be serialised are an error, never "equal": a
+/// resume must not be accepted because nothing could be compared.
+pub fn first_difference<T: Serialize>(a: &T, b: &T) -> Result<Option<(String, String, String)>> {
+    let json = |v: &T| {
+        serde_json::to_value(v)
+            .map_err(|e| DatasetError::Invalid(format!("cannot compare the dataset settings: {e}")))
+    };
+    let (a, b) = (json(a)?, json(b)?);
+    let (Some(ao), Some(bo)) = (a.as_object(), b.as_object()) else {
+        return Ok((a != b).then(|| ("settings".into(), brief(&a), brief(&b))));
+    };
+    let null = serde_json::Value::Null;
+    let keys: std::collections::BTreeSet<&String> = ao.keys().chain(bo.keys()).collect();
+    for key in keys {
+        let (va, vb) = (ao.get(key).unwrap_or(&null), bo.get(key).unwrap_or(&null));
+        if va != vb {
+            return Ok(Some((key.clone(), brief(va), brief(vb))));
+        }
+    }
+    Ok(None)
 }
 
 fn brief(v: &serde_json::Value) -> String {
@@ -245,6 +258,28 @@ pub struct ManifestContents {
     pub bad_lines: Vec<(usize, String)>,
     /// The file ended in the middle of a line (a run was killed while appending).
     pub torn_tail: bool,
+    /// Lines whose record names a file outside the dataset folder (an absolute path or one with
+    /// `..`): line number and the path. No crash writes such a line; it is refused, never read.
+    pub unsafe_paths: Vec<(usize, String)>,
+}
+
+impl ManifestContents {
+    /// Refuses the manifest at `path` if any line names a file outside the dataset folder.
+    pub fn refuse_unsafe_paths(&self, path: &Path) -> Result<()> {
+        match self.unsafe_paths.first() {
+            Some((line, file)) => Err(DatasetError::Corrupt {
+                path: path.to_path_buf(),
+                reason: unsafe_path_reason(*line, file),
+            }),
+            None => Ok(()),
+        }
+    }
+}
+
+/// The one-line reason for a manifest line that names a file outside the dataset folder.
+#[must_use]
+pub fn unsafe_path_reason(line: usize, file: &str) -> String {
+    format!("line {line}: file path {file:?} is absolute or leaves the dataset folder")
 }
 
 /// Reads a manifest; a missing file reads as empty.
@@ -274,7 +309,16 @@ pub fn read_manifest(path: &Path) -> Result<ManifestContents> {
             continue;
         }
         match serde_json::from_slice::<Record>(line) {
-            Ok(r) => out.records.push((line_no, r)),
+            Ok(r) => {
+                let outside = r
+                    .files()
+                    .find(|f| !uwnr_core::io::stays_inside(Path::new(f)))
+                    .map(str::to_string);
+                match outside {
+                    Some(f) => out.unsafe_paths.push((line_no, f)),
+                    None => out.records.push((line_no, r)),
+                }
+            }
             Err(e) => out
                 .bad_lines
                 .push((line_no, format!("not a pair record: {e}"))),
@@ -431,6 +475,56 @@ mod tests {
         assert_eq!(m.bad_lines.len(), 1);
         assert_eq!(m.bad_lines[0].0, 2);
         assert!(m.torn_tail);
+    }
+
+    #[test]
+    fn records_naming_files_outside_the_folder_are_set_apart() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("manifest.jsonl");
+        let mut text = record("a_0", 0).to_line();
+        let mut escape = record("a_1", 1);
+        escape.underwater = "../secret.txt".into();
+        text.push_str(&escape.to_line());
+        let mut absolute = record("a_2", 2);
+        absolute.depth = Some("/etc/passwd".into());
+        text.push_str(&absolute.to_line());
+        std::fs::write(&path, text).unwrap();
+        let m = read_manifest(&path).unwrap();
+        assert_eq!(m.records.len(), 1);
+        assert_eq!(
+            m.unsafe_paths,
+            [
+                (2, "../secret.txt".to_string()),
+                (3, "/etc/passwd".to_string())
+            ]
+        );
+        let err = m.refuse_unsafe_paths(&path).unwrap_err().to_string();
+        assert!(
+            err.contains("manifest.jsonl") && err.contains("line 2"),
+            "{err}"
+        );
+        assert_eq!(err.lines().count(), 1);
+    }
+
+    /// A value whose serialisation fails (as a map with non-string keys would).
+    struct Unserialisable;
+
+    impl Serialize for Unserialisable {
+        fn serialize<S: serde::Serializer>(&self, _: S) -> std::result::Result<S::Ok, S::Error> {
+            Err(serde::ser::Error::custom("no JSON form"))
+        }
+    }
+
+    #[test]
+    fn settings_that_cannot_be_serialised_never_compare_equal() {
+        let err = first_difference(&Unserialisable, &Unserialisable).unwrap_err();
+        assert!(err.to_string().contains("no JSON form"), "{err}");
+        // Fields present on one side only are differences too.
+        let a = serde_json::json!({"seed": 1});
+        let b = serde_json::json!({"seed": 1, "extra": true});
+        assert_eq!(first_difference(&a, &b).unwrap().unwrap().0, "extra");
+        assert_eq!(first_difference(&a, &a).unwrap(), None);
+        assert!(first_difference(&1, &2).unwrap().is_some());
     }
 
     #[test]

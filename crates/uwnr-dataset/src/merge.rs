@@ -54,7 +54,7 @@ pub fn merge(out: &Path, sources: &[PathBuf], gallery: bool) -> Result<MergeRepo
             let theirs = Settings::read(folder)?;
             match &settings {
                 Some(ours) => {
-                    if let Some((field, a, b)) = ours.first_difference(&theirs) {
+                    if let Some((field, a, b)) = ours.first_difference(&theirs)? {
                         return Err(DatasetError::SettingsMismatch {
                             out: folder.clone(),
                             field,
@@ -119,6 +119,7 @@ pub fn merge(out: &Path, sources: &[PathBuf], gallery: bool) -> Result<MergeRepo
     let mut merged: BTreeMap<u64, (Record, PathBuf)> = BTreeMap::new();
     for (folder, name, _) in &manifests {
         let contents = read_manifest(&folder.join(name))?;
+        contents.refuse_unsafe_paths(&folder.join(name))?;
         if let Some((line, reason)) = contents.bad_lines.first() {
             return Err(DatasetError::Corrupt {
                 path: folder.join(name),

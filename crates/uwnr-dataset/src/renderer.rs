@@ -58,17 +58,19 @@ impl Renderer {
         }
     }
 
-    /// The configuration recorded in the dataset settings.
-    #[must_use]
-    pub fn settings_params(&self) -> serde_json::Value {
-        match self {
-            Self::Network(n) => json!({
-                "weights": n.weights,
-                "fingerprint": n.fingerprint,
-                "config": n.config,
+    /// The configuration recorded in the dataset settings (compared on resume, so a value that
+    /// cannot be serialised is an error rather than a `null` that would match another).
+    pub fn settings_params(&self) -> Result<serde_json::Value> {
+        let value = match self {
+            Self::Network(n) => serde_json::to_value(NetworkParams {
+                weights: &n.weights,
+                fingerprint: &n.fingerprint,
+                config: &n.config,
             }),
-            Self::Baseline(m) => serde_json::to_value(m).unwrap_or(serde_json::Value::Null),
-        }
+            Self::Baseline(m) => serde_json::to_value(m),
+        };
+        value
+            .map_err(|e| DatasetError::Invalid(format!("cannot record the method's settings: {e}")))
     }
 
     /// The light-field map references are turned into (the network's config says which; the
@@ -120,6 +122,14 @@ impl Renderer {
             Self::Baseline(m) => Worker::Baseline(m),
         })
     }
+}
+
+/// What the settings record of the network.
+#[derive(serde::Serialize)]
+struct NetworkParams<'a> {
+    weights: &'a str,
+    fingerprint: &'a str,
+    config: &'a GeneratorConfig,
 }
 
 /// A renderer as one worker thread holds it.
@@ -202,5 +212,76 @@ mod tests {
         assert_eq!(fnv1a64(b""), 0xcbf2_9ce4_8422_2325);
         assert_eq!(fnv1a64(b"a"), 0xaf63_dc4c_8601_ec8c);
         assert_eq!(fnv1a64(b"foobar"), 0x8594_4171_f739_67e8);
+    }
+
+    #[test]
+    fn a_run_whose_workers_cannot_start_is_incomplete_and_verify_agrees() {
+        let tmp = tempfile::tempdir().unwrap();
+        let (clean, refs) = (tmp.path().join("clean"), tmp.path().join("refs"));
+        std::fs::create_dir_all(&clean).unwrap();
+        std::fs::create_dir_all(&refs).unwrap();
+        for k in 0..2 {
+            let img = Image::filled(24, 20, 3, 0.2 + 0.3 * k as f32);
+            uwnr_core::io::save_rgb(&clean.join(format!("c{k}.png")), &img).unwrap();
+            uwnr_core::io::save_rgb(&refs.join(format!("r{k}.png")), &img).unwrap();
+        }
+        let config = GeneratorConfig::with_base_width(8);
+        let device = Device::flex();
+        let generator = config.init(&device).unwrap();
+        let renderer = Renderer::network(
+            generator,
+            config,
+            RenderOptions::default(),
+            device,
+            "test".into(),
+            b"",
+        );
+        // A worker takes its copy of the network under the lock: a poisoned lock stops every
+        // worker from starting.
+        let Renderer::Network(n) = &renderer else {
+            unreachable!()
+        };
+        let _ = std::thread::scope(|s| {
+            s.spawn(|| {
+                let _held = n.generator.lock();
+                panic!("poisoning the network's lock");
+            })
+            .join()
+        });
+        let spec = crate::Spec {
+            clean: vec![clean],
+            references: vec![refs],
+            per_image: 1,
+            seed: 1,
+            size: crate::Size::Native,
+            save_depth: false,
+            save_lightfield: false,
+            depth: uwnr_depth::DepthSource::Builtin,
+        };
+        let opts = crate::RunOptions {
+            shard: None,
+            jobs: 2,
+            limits: uwnr_core::io::DecodeLimits::default(),
+            gallery: true,
+        };
+        let out = tmp.path().join("out");
+        let stop = std::sync::atomic::AtomicBool::new(false);
+        let summary = crate::generate(&out, &spec, &renderer, &opts, &stop, &mut |_| {}).unwrap();
+        assert_eq!(summary.rendered, 0);
+        assert!(summary.failures.is_empty() && !summary.interrupted);
+        assert!(!summary.complete && !summary.ok());
+        assert_eq!(
+            summary.worker_errors.len(),
+            2,
+            "{:?}",
+            summary.worker_errors
+        );
+        let report = crate::verify(&out, &|_, _| {}).unwrap();
+        assert!(!report.ok());
+        assert!(
+            report.problems.iter().any(|p| p.contains("missing")),
+            "{:?}",
+            report.problems
+        );
     }
 }

@@ -107,12 +107,25 @@ pub struct Summary {
     pub interrupted: bool,
     /// Every owned pair is in the manifest.
     pub complete: bool,
+    /// Why workers could not start (each one that did not adds a line). With none left, pairs
+    /// stay unmade without failing: the run is then incomplete.
+    pub worker_errors: Vec<String>,
+}
+
+impl Summary {
+    /// The run made every pair it owns, and nothing failed or stopped it: the exit code of the
+    /// command follows this, and `verify` reports missing pairs exactly when `complete` is false
+    /// and they are not listed as failed.
+    #[must_use]
+    pub fn ok(&self) -> bool {
+        self.complete && self.failures.is_empty() && !self.interrupted
+    }
 }
 
 enum Msg {
     Pair(Record),
     Failed(Failure),
-    Note(String),
+    WorkerFailed(String),
 }
 
 /// Per-reference light fields, each computed once; `Err` for unreadable references.
@@ -172,8 +185,9 @@ pub fn generate(
     let settings = Settings {
         format: FORMAT.into(),
         method: renderer.name().into(),
-        method_params: renderer.settings_params(),
-        depth_source: serde_json::to_value(&spec.depth).unwrap_or_default(),
+        method_params: renderer.settings_params()?,
+        depth_source: serde_json::to_value(&spec.depth)
+            .map_err(|e| DatasetError::Invalid(format!("cannot record the depth source: {e}")))?,
         per_image: spec.per_image,
         seed: spec.seed,
         size: spec.size,
@@ -191,7 +205,7 @@ pub fn generate(
     };
     match Settings::read(out) {
         Ok(existing) => {
-            if let Some((field, there, now)) = existing.first_difference(&settings) {
+            if let Some((field, there, now)) = existing.first_difference(&settings)? {
                 return Err(DatasetError::SettingsMismatch {
                     out: out.to_path_buf(),
                     field,
@@ -223,6 +237,7 @@ pub fn generate(
         planned.iter().map(|p| (p.id.as_str(), p)).collect();
     let manifest_path = out.join(manifest_name(opts.shard));
     let existing = read_manifest(&manifest_path)?;
+    existing.refuse_unsafe_paths(&manifest_path)?;
     let mut kept: Vec<Record> = Vec::new();
     let mut done: HashSet<String> = HashSet::new();
     let mut dropped = existing.bad_lines.len() + usize::from(existing.torn_tail);
@@ -303,7 +318,7 @@ pub fn generate(
                 let worker = match renderer.worker() {
                     Ok(w) => w,
                     Err(e) => {
-                        let _ = tx.send(Msg::Note(format!("a worker could not start: {e}")));
+                        let _ = tx.send(Msg::WorkerFailed(e.to_string()));
                         return;
                     }
                 };
@@ -340,7 +355,10 @@ pub fn generate(
                     observer(Event::Failed(&f));
                     summary.failures.push(f);
                 }
-                Msg::Note(n) => observer(Event::Note(&n)),
+                Msg::WorkerFailed(e) => {
+                    observer(Event::Note(&format!("a worker could not start: {e}")));
+                    summary.worker_errors.push(e);
+                }
             }
         }
     });
@@ -355,10 +373,9 @@ pub fn generate(
         write_failures(&out.join(failed_name(opts.shard)), &summary.failures)?;
     }
     if !summary.interrupted {
-        // Every owned pair was made or failed: put the manifest in pair order, so the folder is
-        // the same whatever the job count.
+        // Put the manifest in pair order, so the folder is the same whatever the job count.
         write_manifest(&manifest_path, &mut kept)?;
-        if opts.shard.is_none() && opts.gallery {
+        if opts.shard.is_none() && opts.gallery && summary.complete {
             crate::gallery::write(out, &kept)?;
         }
     }

@@ -95,6 +95,10 @@ pub fn verify(out: &Path, progress: &(dyn Fn(usize, usize) + Sync)) -> Result<Re
         for (line, reason) in &contents.bad_lines {
             report.problems.push(format!("{m} line {line}: {reason}"));
         }
+        for (line, file) in &contents.unsafe_paths {
+            let reason = crate::manifest::unsafe_path_reason(*line, file);
+            report.problems.push(format!("{m} {reason}"));
+        }
         if contents.torn_tail {
             report.problems.push(format!(
                 "{m} ends in a torn line (an interrupted run): run the same command again"

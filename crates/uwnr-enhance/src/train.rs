@@ -45,12 +45,13 @@ use uwnr_model::weights::SOURCE_METADATA_KEY;
 use uwnr_train::TrainError;
 use uwnr_train::augment::{epoch_order, mix64};
 use uwnr_train::checkpoint::{
-    BEST, CHECKPOINTS_DIR, LAST, RunState, find_checkpoint, load_module_checkpoint,
-    save_module_checkpoint,
+    BEST, CHECKPOINTS_DIR, LAST, RunState, check_run_folder, find_checkpoint,
+    load_module_checkpoint, save_module_checkpoint,
 };
 use uwnr_train::csvlog::{CsvLog, VAL_HEADER};
 use uwnr_train::losses::{Perceptual, ssim_loss};
 use uwnr_train::plot::{LossSeries, TOTAL_COLOUR, draw_loss_curves, series_colour};
+use uwnr_train::trainer::claim_run_folder;
 pub use uwnr_train::trainer::{CONFIG_FILE, CURVES_FILE, DATA_REPORT_FILE, METRICS_FILE, VAL_FILE};
 use uwnr_train::{Vgg19Features, init_seeded};
 
@@ -351,7 +352,10 @@ pub fn train(
 ) -> Result<EnhanceTrainSummary> {
     cfg.validate()?;
     let run = &opts.run_dir;
-    prepare_run_dir(cfg, run, opts.resume)?;
+    check_run_folder(run, opts.resume)?;
+    if opts.resume {
+        check_saved_config(cfg, run)?;
+    }
 
     let data = data::load(
         &opts.data,
@@ -360,10 +364,10 @@ pub fn train(
         cfg.max_pairs_per_dir,
         &opts.limits,
     )?;
-    let report = data.report.to_text();
-    write_file(&run.join(DATA_REPORT_FILE), &report)?;
+    let data::Data { pairs, val, report } = data;
+    // Shown before anything is checked, so a refused start still lists what was skipped.
+    let report = report.to_text();
     observer(EnhanceEvent::Message(report.trim_end()));
-    let data::Data { pairs, val, .. } = data;
     let steps_per_epoch = pairs.len() / cfg.batch_size;
     if steps_per_epoch == 0 {
         return Err(TrainError::NoData(format!(
@@ -373,6 +377,11 @@ pub fn train(
         ))
         .into());
     }
+    // The data has loaded: only now is the folder claimed.
+    if !opts.resume {
+        claim_run_folder(run, &cfg.to_json()?)?;
+    }
+    write_file(&run.join(DATA_REPORT_FILE), &report)?;
     let total_steps = cfg.total_steps.map_or(cfg.epochs * steps_per_epoch, |t| {
         t.min(cfg.epochs * steps_per_epoch)
     });
@@ -434,8 +443,9 @@ pub fn train(
         metrics: &metrics,
         val_log: &val_log,
         perceptual_name: match perceptual {
-            Perceptual::Ssim => "PERCEPTUAL (1 - SSIM)",
-            _ => "PERCEPTUAL",
+            Perceptual::Vgg(_) => "perceptual (VGG19)",
+            Perceptual::Ssim => "perceptual (1 - SSIM)",
+            Perceptual::Off => "perceptual (off)",
         },
     };
     let mut summary = EnhanceTrainSummary {
@@ -735,7 +745,7 @@ impl Ctx<'_> {
                 points: column(4),
             },
             LossSeries {
-                name: "TOTAL".into(),
+                name: "total".into(),
                 colour: TOTAL_COLOUR,
                 points: column(5),
             },
@@ -789,30 +799,17 @@ impl LogWindow {
     }
 }
 
-/// Creates the run folder and writes `config.json`, or checks it on resume.
-fn prepare_run_dir(cfg: &EnhanceTrainConfig, run: &Path, resume: bool) -> Result<()> {
+/// On resume, the run's `config.json` must equal `cfg`; the error names the changed fields.
+fn check_saved_config(cfg: &EnhanceTrainConfig, run: &Path) -> Result<()> {
     let cfg_path = run.join(CONFIG_FILE);
-    if resume {
-        let saved = EnhanceTrainConfig::from_json_file(&cfg_path)?;
-        if &saved != cfg {
-            return Err(EnhanceError::ConfigChanged {
-                fields: changed_fields(&saved, cfg),
-                path: cfg_path,
-            });
-        }
-        return Ok(());
+    let saved = EnhanceTrainConfig::from_json_file(&cfg_path)?;
+    if &saved != cfg {
+        return Err(EnhanceError::ConfigChanged {
+            fields: changed_fields(&saved, cfg),
+            path: cfg_path,
+        });
     }
-    if cfg_path.exists() || run.join(CHECKPOINTS_DIR).exists() {
-        return Err(TrainError::RunExists {
-            dir: run.to_path_buf(),
-        }
-        .into());
-    }
-    std::fs::create_dir_all(run).map_err(|source| TrainError::Io {
-        path: run.to_path_buf(),
-        source,
-    })?;
-    write_file(&cfg_path, &cfg.to_json()?)
+    Ok(())
 }
 
 /// The dotted names of the fields that differ between two configs (e.g. `model.width`).

@@ -49,6 +49,12 @@ pub enum ExperimentError {
     /// An image operation.
     #[error(transparent)]
     Core(#[from] uwnr_core::CoreError),
+    /// A figure could not be drawn.
+    #[error("drawing {what}: {source}")]
+    Figure {
+        what: &'static str,
+        source: uwnr_figures::FigureError,
+    },
 }
 
 /// Result of this crate.

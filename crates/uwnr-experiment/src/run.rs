@@ -10,7 +10,6 @@ use serde_json::json;
 use uwnr_core::Image;
 use uwnr_core::io::{DecodeLimits, load_rgb, write_atomic};
 use uwnr_core::resize::resize_bilinear;
-use uwnr_core::sheet::contact_sheet;
 use uwnr_dataset::{Renderer, RunOptions, Size, Spec};
 use uwnr_depth::DepthSource;
 use uwnr_enhance::eval::{EvalReport, evaluate_dir};
@@ -160,16 +159,23 @@ fn short_names(dirs: &[PathBuf]) -> Vec<String> {
 }
 
 /// The settings recorded in `experiment.json`: a re-run must match them.
-fn settings(spec: &DownstreamSpec, sets: &[TrainingSet]) -> serde_json::Value {
-    json!({
+fn settings(spec: &DownstreamSpec, sets: &[TrainingSet]) -> Result<serde_json::Value> {
+    let methods = sets
+        .iter()
+        .map(|s| {
+            let params = s
+                .renderer
+                .settings_params()
+                .map_err(|e| ExperimentError::Invalid(format!("{}: {e}", s.name)))?;
+            Ok(json!({ "name": s.name, "params": params }))
+        })
+        .collect::<Result<Vec<_>>>()?;
+    Ok(json!({
         "clean": paths(&spec.clean),
         "references": paths(&spec.references),
         "tests": paths(&spec.tests),
         "real": paths(&spec.real),
-        "methods": sets
-            .iter()
-            .map(|s| json!({ "name": s.name, "params": s.renderer.settings_params() }))
-            .collect::<Vec<_>>(),
+        "methods": methods,
         "per_image": spec.per_image,
         "size": spec.size.to_string(),
         "seed": spec.seed,
@@ -178,7 +184,7 @@ fn settings(spec: &DownstreamSpec, sets: &[TrainingSet]) -> serde_json::Value {
         "budget": spec.budget,
         "eval_max_side": spec.eval_max_side,
         "vgg19": spec.vgg19.as_ref().map(|p| p.display().to_string()),
-    })
+    }))
 }
 
 /// Checks the output folder's recorded settings against this run's (or records them).
@@ -247,7 +253,8 @@ fn train_row(
         spec.out.join("runs").join(name),
         spec.device.clone(),
     );
-    opts.resume = opts.run_dir.join("config.json").exists();
+    // A row killed before its first checkpoint left a folder that holds no run: it starts again.
+    opts.resume = uwnr_train::checkpoint::holds_run(&opts.run_dir);
     opts.vgg19.clone_from(&spec.vgg19);
     opts.limits = spec.limits;
     let summary = train(&cfg, &opts, stop, &mut |e| observer(Event::Train(name, e)))
@@ -334,14 +341,15 @@ fn fit_side(image: Image, max_side: Option<usize>) -> Result<Image> {
 }
 
 /// `examples.png`: for the first test images of each set, the input, every trained network's
-/// output and the clean reference, left to right in table order.
+/// output and the clean reference, left to right in table order, under column headers naming
+/// the training set of each network; each row is labelled with its test set and image.
 fn examples_sheet(
     spec: &DownstreamSpec,
     nets: &[(String, ShallowUwnet)],
     path: &Path,
 ) -> Result<()> {
-    let mut rows: Vec<Vec<Image>> = Vec::new();
-    for dir in &spec.tests {
+    let mut rows: Vec<(String, Vec<Image>)> = Vec::new();
+    for (dir, set) in spec.tests.iter().zip(short_names(&spec.tests)) {
         let pairs = discover_pairs(dir, Some(spec.examples))
             .map_err(|e| ExperimentError::Invalid(format!("{}: {e}", dir.display())))?;
         for p in &pairs.pairs {
@@ -352,15 +360,33 @@ fn examples_sheet(
                 row.push(enhance(net, &input, &spec.device).map_err(enhance_err(name))?);
             }
             row.push(clean);
-            rows.push(row);
+            rows.push((format!("{set}: {}", p.name), row));
         }
     }
     if rows.is_empty() {
         return Ok(());
     }
-    let refs: Vec<Vec<&Image>> = rows.iter().map(|r| r.iter().collect()).collect();
-    let sheet = contact_sheet(&refs, EXAMPLE_THUMB)?;
-    Ok(uwnr_core::io::save_rgb(path, &sheet)?)
+    let columns: Vec<String> = std::iter::once("input (underwater)".to_string())
+        .chain(nets.iter().map(|(name, _)| format!("trained on {name}")))
+        .chain(std::iter::once("clean reference".to_string()))
+        .collect();
+    let sheet = uwnr_figures::Sheet {
+        title: Some("Shallow-UWnet outputs on the test images".into()),
+        columns,
+        rows: rows
+            .iter()
+            .map(|(label, images)| uwnr_figures::SheetRow {
+                label: Some(label.clone()),
+                images: images.iter().collect(),
+            })
+            .collect(),
+        thumb: EXAMPLE_THUMB,
+    };
+    let img = uwnr_figures::draw_sheet(&sheet).map_err(|source| ExperimentError::Figure {
+        what: EXAMPLES_PNG,
+        source,
+    })?;
+    Ok(uwnr_core::io::save_rgb(path, &img)?)
 }
 
 fn validate(spec: &DownstreamSpec, sets: &[TrainingSet]) -> Result<()> {
@@ -405,7 +431,7 @@ pub fn run_downstream(
 ) -> Result<Results> {
     validate(spec, sets)?;
     std::fs::create_dir_all(&spec.out).map_err(|e| ExperimentError::io(&spec.out, e))?;
-    let settings = settings(spec, sets);
+    let settings = settings(spec, sets)?;
     check_settings(&spec.out, &settings)?;
 
     let test_names = short_names(&spec.tests);
@@ -500,6 +526,11 @@ pub fn run_downstream(
             })?;
             if summary.interrupted {
                 return Err(ExperimentError::Stopped);
+            }
+            if let (false, Some(e)) = (summary.complete, summary.worker_errors.first()) {
+                return Err(ExperimentError::Invalid(format!(
+                    "the {name} training set is incomplete: a worker could not start: {e}"
+                )));
             }
             let made = pair_count(data)?;
             failed_pairs = Some(summary.planned.saturating_sub(made));

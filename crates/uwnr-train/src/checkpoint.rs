@@ -196,6 +196,33 @@ pub fn find_checkpoint(dir: &Path) -> Option<PathBuf> {
         .find(|d| d.join(STATE_FILE).is_file() && d.join(MODEL_FILE).is_file())
 }
 
+/// Whether the folder `run` holds a training run. A run begins with its first checkpoint: a
+/// folder with none (a first session that failed or was killed before it) is not one, so it may
+/// be started again and cannot be resumed.
+#[must_use]
+pub fn holds_run(run: &Path) -> bool {
+    find_checkpoint(&run.join(CHECKPOINTS_DIR).join(LAST)).is_some()
+}
+
+/// Checks the run folder before anything is loaded: a fresh start refuses a folder that holds a
+/// run ([`TrainError::RunExists`]), a resume needs one. Nothing is written: the folder is claimed
+/// (created, its config written) only once the data has loaded, so a failed start leaves nothing
+/// that would block the next one.
+pub fn check_run_folder(run: &Path, resume: bool) -> Result<()> {
+    match (resume, holds_run(run)) {
+        (false, true) => Err(TrainError::RunExists {
+            dir: run.to_path_buf(),
+        }),
+        (true, false) => Err(TrainError::Checkpoint {
+            path: run.join(CHECKPOINTS_DIR).join(LAST),
+            reason: "no checkpoint to resume from (the run never wrote one: start it again \
+                     without --resume)"
+                .into(),
+        }),
+        _ => Ok(()),
+    }
+}
+
 /// Reads a checkpoint's state.
 pub fn read_state(dir: &Path) -> Result<RunState> {
     let path = dir.join(STATE_FILE);

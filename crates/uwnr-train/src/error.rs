@@ -8,6 +8,9 @@ pub type Result<T> = std::result::Result<T, TrainError>;
 /// Everything that can go wrong while preparing or running training.
 #[derive(Debug, thiserror::Error)]
 pub enum TrainError {
+    /// A figure (curves, contact sheet) could not be drawn.
+    #[error("drawing a figure: {0}")]
+    Figure(String),
     /// A config field has an unusable value.
     #[error("invalid config: {field}: {reason}")]
     InvalidConfig { field: &'static str, reason: String },

@@ -122,6 +122,7 @@ pub struct Loader {
     rx: Option<Receiver<Result<Batch>>>,
     stop: Arc<AtomicBool>,
     handle: Option<JoinHandle<()>>,
+    started: bool,
 }
 
 impl Loader {
@@ -144,19 +145,40 @@ impl Loader {
         Self {
             rx: Some(rx),
             stop,
+            started: handle.is_some(),
             handle,
         }
     }
 
-    /// The next batch, or `None` after the last epoch.
+    /// The next batch, or `None` after the last epoch. A producer that panicked gives its
+    /// panic message as the error (the channel closing alone would read as the end of the data).
     pub fn next_batch(&mut self) -> Option<Result<Batch>> {
-        if self.handle.is_none() {
+        if !self.started {
             return Some(Err(TrainError::Loader(
                 "the loader thread could not be started".into(),
             )));
         }
-        self.rx.as_ref()?.recv().ok()
+        match self.rx.as_ref()?.recv() {
+            Ok(batch) => Some(batch),
+            // The producer has returned or unwound: join it to learn which.
+            Err(_) => match self.handle.take()?.join() {
+                Ok(()) => None,
+                Err(payload) => Some(Err(TrainError::Loader(format!(
+                    "the loader thread panicked: {}",
+                    panic_message(payload.as_ref())
+                )))),
+            },
+        }
     }
+}
+
+/// The text of a panic payload (`panic!` with a literal gives `&str`, with arguments `String`).
+fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
+    payload
+        .downcast_ref::<&str>()
+        .map(|s| (*s).to_string())
+        .or_else(|| payload.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "(no message)".into())
 }
 
 impl Drop for Loader {
@@ -192,5 +214,69 @@ fn produce(
                 return;
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A pair whose buffers are shorter than its size says: building a sample from it panics
+    /// (an index out of bounds), inside the producer thread.
+    fn malformed_pair() -> PairData {
+        PairData {
+            name: "short".into(),
+            width: 64,
+            height: 64,
+            clean: vec![0; 3],
+            underwater: vec![0; 3],
+            depth: vec![0; 1],
+        }
+    }
+
+    #[test]
+    fn a_panic_in_the_producer_is_reported_with_its_cause() {
+        let spec = BatchSpec {
+            pairs: Arc::new(vec![malformed_pair(), malformed_pair()]),
+            seed: 1,
+            batch_size: 2,
+            crop: 32,
+            augment: AugmentConfig::default(),
+            light_field: LightFieldMap::default(),
+        };
+        let mut loader = Loader::start(spec, 0, 0, 1, 1);
+        let err = match loader.next_batch() {
+            Some(Err(e)) => e.to_string(),
+            Some(Ok(_)) => panic!("a batch from a malformed pair"),
+            None => panic!("the panic read as the end of the data"),
+        };
+        assert!(err.contains("panicked") && err.contains("out of"), "{err}");
+        // Afterwards the stream is over, not an endless error.
+        assert!(loader.next_batch().is_none());
+    }
+
+    #[test]
+    fn the_stream_ends_after_the_last_epoch() {
+        let pair = PairData {
+            name: "ok".into(),
+            width: 32,
+            height: 32,
+            clean: vec![128; 3 * 32 * 32],
+            underwater: vec![64; 3 * 32 * 32],
+            depth: vec![1000; 32 * 32],
+        };
+        let spec = BatchSpec {
+            pairs: Arc::new(vec![pair.clone(), pair]),
+            seed: 1,
+            batch_size: 1,
+            crop: 32,
+            augment: AugmentConfig::default(),
+            light_field: LightFieldMap::default(),
+        };
+        let mut loader = Loader::start(spec, 0, 0, 2, 2);
+        let got: Vec<(usize, usize)> = std::iter::from_fn(|| loader.next_batch())
+            .map(|b| b.map(|b| (b.epoch, b.index)).unwrap())
+            .collect();
+        assert_eq!(got, [(0, 0), (0, 1), (1, 0), (1, 1)]);
     }
 }

@@ -1,30 +1,20 @@
-//! Pictures of a run, drawn with the `image` crate alone: the loss and validation curves
-//! (`curves.png`) and the validation contact sheets (clean | render | real underwater, one
-//! row per pair).
-//!
-//! Text uses a built-in 3x5 pixel font (digits, capitals A-Z and `. , - + / ( ) : _ %`; lower
-//! case is drawn as capitals), scaled up.
+//! Pictures of a run, drawn with `uwnr-figures` (plotters and an embedded DejaVu Sans): the
+//! loss and validation curves (`curves.png`: titles, axis labels, a legend per panel) and the
+//! validation contact sheets (columns headed clean | render | real underwater, one row per pair,
+//! labelled with its name).
 
 use std::path::Path;
 
-use image::{Rgb, RgbImage};
 use uwnr_core::Image;
 use uwnr_core::io::save_rgb;
+use uwnr_figures::{Panel, Reference, Series, Sheet, SheetRow, draw_panels, draw_sheet};
 
 use crate::error::{Result, TrainError};
 
-/// Size of the curve picture.
+/// Width of the curve picture.
 const PLOT_W: u32 = 960;
 /// Height of each of the two panels.
-const PANEL_H: u32 = 300;
-/// Margins around a panel's axes box: left, right, top, bottom.
-const MARGIN: (u32, u32, u32, u32) = (80, 20, 30, 30);
-/// Pixel size of one font dot.
-const FONT_SCALE: u32 = 2;
-/// Colours.
-const WHITE: Rgb<u8> = Rgb([255, 255, 255]);
-const BLACK: Rgb<u8> = Rgb([0, 0, 0]);
-const GRID: Rgb<u8> = Rgb([225, 225, 225]);
+const PANEL_H: u32 = 320;
 /// Colours given to loss series in order ([`series_colour`]): the Okabe-Ito palette, which
 /// stays distinguishable for colour-blind readers.
 pub const SERIES_COLOURS: [[u8; 3]; 6] = [
@@ -38,11 +28,11 @@ pub const SERIES_COLOURS: [[u8; 3]; 6] = [
 /// Colour of a run's total loss.
 pub const TOTAL_COLOUR: [u8; 3] = [0, 0, 0];
 /// Legend names of UWNR's loss terms (as in `metrics.csv`).
-const TERM_NAMES: [&str; 5] = ["L1", "PERCEPTUAL", "DARK CHANNEL", "LIGHT FIELD", "TOTAL"];
+const TERM_NAMES: [&str; 5] = ["L1", "perceptual", "dark channel", "light field", "total"];
 /// Colour of the validation PSNR curve.
-const VAL_COLOUR: Rgb<u8> = Rgb([213, 94, 0]);
-/// Colour of the reference lines on the validation panel.
-const REF_COLOUR: Rgb<u8> = Rgb([150, 150, 150]);
+const VAL_COLOUR: [u8; 3] = [213, 94, 0];
+/// Column headers of a validation contact sheet.
+const SHEET_COLUMNS: [&str; 3] = ["clean", "render", "real underwater"];
 
 /// One logged row of UWNR's training losses: step and the five values.
 pub type LossPoint = (usize, [f64; 5]);
@@ -52,7 +42,7 @@ pub type ValPoint = (usize, f64);
 /// A named curve of the loss panel.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LossSeries {
-    /// Legend text (drawn in capitals; letters, digits, space and `. - + / ( ) : _ %`).
+    /// Legend text.
     pub name: String,
     /// Line colour, RGB.
     pub colour: [u8; 3],
@@ -91,309 +81,91 @@ pub fn draw_curves(
 }
 
 /// Draws a run's curve picture: the top panel shows the loss `series` (log scale) against the
-/// step, with a legend, the bottom panel the validation PSNR with horizontal reference lines
-/// (e.g. baselines) at `refs`. Series are drawn last to first, so the first lies on top.
+/// step, the bottom panel the validation PSNR with dashed reference lines (e.g. baselines) at
+/// `refs`. Series are drawn last to first, so the first lies on top.
 pub fn draw_loss_curves(
     path: &Path,
     series: &[LossSeries],
     val: &[ValPoint],
     refs: &[f64],
 ) -> Result<()> {
-    let mut img = RgbImage::from_pixel(PLOT_W, 2 * PANEL_H, WHITE);
-    let max_step = series
-        .iter()
-        .flat_map(|s| s.points.iter().map(|p| p.0))
-        .chain(val.iter().map(|p| p.0))
-        .max()
-        .unwrap_or(1)
-        .max(1) as f64;
-    // Loss panel (log10 of positive values).
-    let logs: Vec<Vec<(f64, f64)>> = series
-        .iter()
-        .map(|s| {
-            s.points
-                .iter()
-                .map(|&(step, v)| (step as f64, if v > 0.0 { v.log10() } else { f64::NAN }))
-                .collect()
-        })
-        .collect();
-    let finite = logs
-        .iter()
-        .flat_map(|pts| pts.iter().map(|p| p.1))
-        .filter(|v| v.is_finite());
-    let (lo, hi) = bounds(finite);
-    let panel = Panel::new(0, (0.0, max_step), (lo, hi));
-    panel.frame(&mut img, "LOSS LOG10", |v| format!("{:.2}", 10f64.powf(v)));
-    let mut legend_x = panel.x0 + panel.w;
-    for (s, pts) in series.iter().zip(&logs).rev() {
-        let colour = Rgb(s.colour);
-        panel.polyline(&mut img, pts, colour);
-        legend_x -= text_width(&s.name) + 12;
-        draw_text(&mut img, legend_x, panel.y0 - 16, &s.name, colour);
-    }
-    // Validation panel.
-    let (lo, hi) = bounds(val.iter().map(|p| p.1).chain(refs.iter().copied()));
-    let panel = Panel::new(PANEL_H, (0.0, max_step), (lo, hi));
-    panel.frame(&mut img, "VAL PSNR DB", |v| format!("{v:.1}"));
-    for &r in refs {
-        panel.polyline(&mut img, &[(0.0, r), (max_step, r)], REF_COLOUR);
-    }
-    let pts: Vec<(f64, f64)> = val.iter().map(|&(s, p)| (s as f64, p)).collect();
-    panel.polyline(&mut img, &pts, VAL_COLOUR);
-    for &(x, y) in &pts {
-        let (px, py) = panel.to_px(x, y);
-        fill_rect(&mut img, px - 2, py - 2, 5, 5, VAL_COLOUR);
-    }
-    save_png(path, &img)
-}
-
-fn bounds(values: impl Iterator<Item = f64>) -> (f64, f64) {
-    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-    for v in values.filter(|v| v.is_finite()) {
-        lo = lo.min(v);
-        hi = hi.max(v);
-    }
-    if !lo.is_finite() {
-        return (0.0, 1.0);
-    }
-    if hi - lo < 1e-9 {
-        return (lo - 0.5, hi + 0.5);
-    }
-    let pad = 0.05 * (hi - lo);
-    (lo - pad, hi + pad)
-}
-
-/// An axes box mapping data coordinates to pixels.
-struct Panel {
-    x0: i64,
-    y0: i64,
-    w: i64,
-    h: i64,
-    xr: (f64, f64),
-    yr: (f64, f64),
-}
-
-impl Panel {
-    fn new(top: u32, xr: (f64, f64), yr: (f64, f64)) -> Self {
-        let (l, r, t, b) = MARGIN;
-        Self {
-            x0: i64::from(l),
-            y0: i64::from(top + t),
-            w: i64::from(PLOT_W - l - r),
-            h: i64::from(PANEL_H - t - b),
-            xr,
-            yr,
-        }
-    }
-
-    fn to_px(&self, x: f64, y: f64) -> (i64, i64) {
-        let fx = (x - self.xr.0) / (self.xr.1 - self.xr.0);
-        let fy = (y - self.yr.0) / (self.yr.1 - self.yr.0);
-        (
-            self.x0 + (fx * self.w as f64).round() as i64,
-            self.y0 + self.h - (fy * self.h as f64).round() as i64,
-        )
-    }
-
-    /// Box, grid, tick labels (4 on y, 3 on x) and the title.
-    fn frame(&self, img: &mut RgbImage, title: &str, ylabel: impl Fn(f64) -> String) {
-        const Y_TICKS: i64 = 4;
-        for i in 0..=Y_TICKS {
-            let y = self.y0 + self.h * i / Y_TICKS;
-            line(img, (self.x0, y), (self.x0 + self.w, y), GRID);
-            let v = self.yr.1 - (self.yr.1 - self.yr.0) * i as f64 / Y_TICKS as f64;
-            let label = ylabel(v);
-            let tw = text_width(&label);
-            draw_text(img, self.x0 - tw - 6, y - 5, &label, BLACK);
-        }
-        for i in 0..=2 {
-            let x = self.x0 + self.w * i / 2;
-            line(img, (x, self.y0), (x, self.y0 + self.h), GRID);
-            let step = self.xr.0 + (self.xr.1 - self.xr.0) * f64::from(i as u8) / 2.0;
-            let label = format!("{}", step.round() as u64);
-            let tw = text_width(&label);
-            draw_text(
-                img,
-                (x - tw / 2).max(0),
-                self.y0 + self.h + 6,
-                &label,
-                BLACK,
-            );
-        }
-        let (l, r, t, b) = (self.x0, self.x0 + self.w, self.y0, self.y0 + self.h);
-        line(img, (l, t), (r, t), BLACK);
-        line(img, (l, b), (r, b), BLACK);
-        line(img, (l, t), (l, b), BLACK);
-        line(img, (r, t), (r, b), BLACK);
-        draw_text(img, l, t - 16, title, BLACK);
-        draw_text(img, self.x0 + self.w * 3 / 4, b + 6, "STEP", BLACK);
-    }
-
-    fn polyline(&self, img: &mut RgbImage, pts: &[(f64, f64)], colour: Rgb<u8>) {
-        let mut prev: Option<(i64, i64)> = None;
-        for &(x, y) in pts {
-            if !y.is_finite() {
-                prev = None;
-                continue;
-            }
-            let p = self.to_px(x, y);
-            if let Some(q) = prev {
-                line(img, q, p, colour);
-            }
-            prev = Some(p);
-        }
-    }
-}
-
-fn put(img: &mut RgbImage, x: i64, y: i64, c: Rgb<u8>) {
-    if x >= 0 && y >= 0 && x < i64::from(img.width()) && y < i64::from(img.height()) {
-        img.put_pixel(x as u32, y as u32, c);
-    }
-}
-
-fn fill_rect(img: &mut RgbImage, x: i64, y: i64, w: i64, h: i64, c: Rgb<u8>) {
-    for yy in y..y + h {
-        for xx in x..x + w {
-            put(img, xx, yy, c);
-        }
-    }
-}
-
-/// Bresenham's line.
-fn line(img: &mut RgbImage, a: (i64, i64), b: (i64, i64), c: Rgb<u8>) {
-    let (mut x, mut y) = a;
-    let (dx, dy) = ((b.0 - x).abs(), -(b.1 - y).abs());
-    let (sx, sy) = (if x < b.0 { 1 } else { -1 }, if y < b.1 { 1 } else { -1 });
-    let mut err = dx + dy;
-    loop {
-        put(img, x, y, c);
-        if (x, y) == b {
-            break;
-        }
-        let e2 = 2 * err;
-        if e2 >= dy {
-            err += dy;
-            x += sx;
-        }
-        if e2 <= dx {
-            err += dx;
-            y += sy;
-        }
-    }
-}
-
-/// 3x5 glyphs, one row per entry, bit 2 = left column.
-fn glyph(ch: char) -> [u8; 5] {
-    match ch.to_ascii_uppercase() {
-        '0' => [7, 5, 5, 5, 7],
-        '1' => [2, 6, 2, 2, 7],
-        '2' => [7, 1, 7, 4, 7],
-        '3' => [7, 1, 7, 1, 7],
-        '4' => [5, 5, 7, 1, 1],
-        '5' => [7, 4, 7, 1, 7],
-        '6' => [7, 4, 7, 5, 7],
-        '7' => [7, 1, 1, 1, 1],
-        '8' => [7, 5, 7, 5, 7],
-        '9' => [7, 5, 7, 1, 7],
-        '.' => [0, 0, 0, 0, 2],
-        '-' => [0, 0, 7, 0, 0],
-        '+' => [0, 2, 7, 2, 0],
-        'A' => [2, 5, 7, 5, 5],
-        'B' => [6, 5, 6, 5, 6],
-        'C' => [7, 4, 4, 4, 7],
-        'D' => [6, 5, 5, 5, 6],
-        'F' => [7, 4, 6, 4, 4],
-        'H' => [5, 5, 7, 5, 5],
-        'U' => [5, 5, 5, 5, 7],
-        'K' => [5, 5, 6, 5, 5],
-        'E' => [7, 4, 6, 4, 7],
-        'G' => [7, 4, 5, 5, 7],
-        'I' => [7, 2, 2, 2, 7],
-        'L' => [4, 4, 4, 4, 7],
-        'M' => [5, 7, 7, 5, 5],
-        'N' => [6, 5, 5, 5, 5],
-        'O' => [7, 5, 5, 5, 7],
-        'P' => [7, 5, 7, 4, 4],
-        'R' => [6, 5, 6, 5, 5],
-        'S' => [7, 4, 7, 1, 7],
-        'T' => [7, 2, 2, 2, 2],
-        'V' => [5, 5, 5, 5, 2],
-        'J' => [1, 1, 1, 5, 7],
-        'Q' => [2, 5, 5, 6, 3],
-        'W' => [5, 5, 7, 7, 5],
-        'X' => [5, 5, 2, 5, 5],
-        'Y' => [5, 5, 2, 2, 2],
-        'Z' => [7, 1, 2, 4, 7],
-        ',' => [0, 0, 0, 2, 4],
-        '/' => [1, 1, 2, 4, 4],
-        '(' => [1, 2, 2, 2, 1],
-        ')' => [4, 2, 2, 2, 4],
-        ':' => [0, 2, 0, 2, 0],
-        '_' => [0, 0, 0, 0, 7],
-        '%' => [5, 1, 2, 4, 5],
-        _ => [0; 5],
-    }
-}
-
-fn text_width(s: &str) -> i64 {
-    (s.chars().count() as i64) * 4 * i64::from(FONT_SCALE)
-}
-
-fn draw_text(img: &mut RgbImage, x: i64, y: i64, s: &str, c: Rgb<u8>) {
-    let k = i64::from(FONT_SCALE);
-    for (i, ch) in s.chars().enumerate() {
-        let g = glyph(ch);
-        for (row, bits) in g.iter().enumerate() {
-            for col in 0..3 {
-                if bits & (4 >> col) != 0 {
-                    fill_rect(
-                        img,
-                        x + (i as i64 * 4 + col) * k,
-                        y + row as i64 * k,
-                        k,
-                        k,
-                        c,
-                    );
-                }
-            }
-        }
-    }
-}
-
-fn save_png(path: &Path, img: &RgbImage) -> Result<()> {
-    let (w, h) = img.dimensions();
-    let data: Vec<f32> = img.as_raw().iter().map(|&v| f32::from(v) / 255.0).collect();
-    let im = Image::from_interleaved(w as usize, h as usize, 3, &data)?;
-    save_rgb(path, &im)?;
+    let losses = Panel {
+        title: "Training loss (mean per logged window)".into(),
+        x_label: "step".into(),
+        y_label: "loss (log scale)".into(),
+        log_y: true,
+        series: series
+            .iter()
+            .map(|s| Series {
+                name: s.name.clone(),
+                colour: s.colour,
+                points: s.points.iter().map(|&(x, y)| (x as f64, y)).collect(),
+                markers: false,
+            })
+            .collect(),
+        references: Vec::new(),
+    };
+    let validation = Panel {
+        title: "Validation".into(),
+        x_label: "step".into(),
+        y_label: "PSNR (dB)".into(),
+        log_y: false,
+        series: vec![Series {
+            name: "validation PSNR".into(),
+            colour: VAL_COLOUR,
+            points: val.iter().map(|&(x, y)| (x as f64, y)).collect(),
+            markers: true,
+        }],
+        references: refs
+            .iter()
+            .map(|&value| Reference {
+                name: format!("reference {value:.2} dB"),
+                value,
+            })
+            .collect(),
+    };
+    let img = draw_panels(&[losses, validation], PLOT_W, PANEL_H).map_err(figure_err)?;
+    save_rgb(path, &img)?;
     Ok(())
 }
 
-/// A contact sheet: one row per `(clean, render, underwater)` triple, each image scaled to
-/// `thumb` pixels high (aspect kept), separated by a white gap ([`uwnr_core::sheet`]).
-pub fn contact_sheet(path: &Path, rows: &[(Image, Image, Image)], thumb: usize) -> Result<()> {
+fn figure_err(e: uwnr_figures::FigureError) -> TrainError {
+    TrainError::Figure(e.to_string())
+}
+
+/// A contact sheet: one row per `(name, clean, render, underwater)`, each image scaled to
+/// `thumb` pixels high (aspect kept), under the column headers clean | render | real underwater.
+pub fn contact_sheet(
+    path: &Path,
+    rows: &[(String, Image, Image, Image)],
+    thumb: usize,
+) -> Result<()> {
     if rows.is_empty() {
         return Err(TrainError::InvalidConfig {
             field: "val_sheet_pairs",
             reason: "a contact sheet needs at least one pair".into(),
         });
     }
-    let rows: Vec<Vec<&Image>> = rows.iter().map(|(a, b, c)| vec![a, b, c]).collect();
-    let sheet = uwnr_core::sheet::contact_sheet(&rows, thumb)?;
-    save_rgb(path, &sheet)?;
+    let sheet = Sheet {
+        title: None,
+        columns: SHEET_COLUMNS.iter().map(|c| (*c).to_string()).collect(),
+        rows: rows
+            .iter()
+            .map(|(name, a, b, c)| SheetRow {
+                label: Some(name.clone()),
+                images: vec![a, b, c],
+            })
+            .collect(),
+        thumb,
+    };
+    let img = draw_sheet(&sheet).map_err(figure_err)?;
+    save_rgb(path, &img)?;
     Ok(())
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn every_capital_and_digit_has_a_glyph() {
-        for ch in ('A'..='Z').chain('0'..='9').chain(".,-+/():_%".chars()) {
-            assert_ne!(glyph(ch), [0; 5], "{ch:?} has no glyph");
-        }
-        assert_eq!(glyph('m'), glyph('M'));
-    }
 
     #[test]
     fn named_series_are_drawn_in_their_colours() {
@@ -406,7 +178,7 @@ mod tests {
                 points: (1..=20).map(|s| (s, 1.0 / s as f64)).collect(),
             },
             LossSeries {
-                name: "TOTAL".into(),
+                name: "total".into(),
                 colour: TOTAL_COLOUR,
                 points: (1..=20).map(|s| (s, 2.0 / s as f64)).collect(),
             },
@@ -415,6 +187,22 @@ mod tests {
         let img = image::open(&path).unwrap().to_rgb8();
         assert_eq!(img.dimensions(), (PLOT_W, 2 * PANEL_H));
         let has = |c: [u8; 3]| img.pixels().any(|p| p.0 == c);
-        assert!(has(series_colour(0)) && has(VAL_COLOUR.0) && has(REF_COLOUR.0));
+        assert!(has(series_colour(0)) && has(VAL_COLOUR));
+    }
+
+    #[test]
+    fn contact_sheets_have_a_header_and_a_row_per_pair() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("sheet.png");
+        let im = Image::filled(16, 8, 3, 0.5);
+        let rows = vec![
+            ("a".to_string(), im.clone(), im.clone(), im.clone()),
+            ("b".to_string(), im.clone(), im.clone(), im),
+        ];
+        contact_sheet(&path, &rows, 32).unwrap();
+        let img = image::open(&path).unwrap().to_rgb8();
+        // Two rows of 32 px plus a header line above them.
+        assert!(img.height() > 2 * 32 + 12, "{}", img.height());
+        assert!(contact_sheet(&path, &[], 32).is_err());
     }
 }

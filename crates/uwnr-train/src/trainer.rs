@@ -28,7 +28,8 @@ use uwnr_model::{Backend, Generator, Network, RenderOptions};
 
 use crate::augment::{INPUT_CHANNELS, TARGET_CHANNELS};
 use crate::checkpoint::{
-    BEST, CHECKPOINTS_DIR, LAST, RunState, find_checkpoint, load_checkpoint, save_checkpoint,
+    BEST, CHECKPOINTS_DIR, LAST, RunState, check_run_folder, find_checkpoint, load_checkpoint,
+    save_checkpoint,
 };
 use crate::config::TrainConfig;
 use crate::csvlog::{CsvLog, METRICS_HEADER, VAL_HEADER};
@@ -178,7 +179,10 @@ pub fn train(
 ) -> Result<TrainSummary> {
     cfg.validate()?;
     let run = &opts.run_dir;
-    prepare_run_dir(cfg, run, opts.resume)?;
+    check_run_folder(run, opts.resume)?;
+    if opts.resume {
+        check_saved_config(cfg, run)?;
+    }
 
     let data = load_data(
         &opts.data,
@@ -191,10 +195,10 @@ pub fn train(
             limits: opts.limits,
         },
     )?;
-    let report = data.report.to_text();
-    write_file(&run.join(DATA_REPORT_FILE), &report)?;
+    let TrainData { pairs, val, report } = data;
+    // Shown before anything is checked, so a refused start still lists what was skipped.
+    let report = report.to_text();
     observer(Event::Message(report.trim_end()));
-    let TrainData { pairs, val, .. } = data;
     let steps_per_epoch = pairs.len() / cfg.batch_size;
     if steps_per_epoch == 0 {
         return Err(TrainError::NoData(format!(
@@ -203,6 +207,11 @@ pub fn train(
             cfg.batch_size
         )));
     }
+    // The data has loaded: only now is the folder claimed.
+    if !opts.resume {
+        claim_run_folder(run, &cfg.to_json()?)?;
+    }
+    write_file(&run.join(DATA_REPORT_FILE), &report)?;
     let total_steps = cfg.epochs * steps_per_epoch;
     let val_lf: Vec<Image> = val
         .iter()
@@ -435,7 +444,7 @@ impl Ctx<'_> {
                 .map_err(|e| metric_err(&v.name, &e))?;
             per_pair.push((v.name.clone(), p, s));
             if sheet.len() < self.cfg.val_sheet_pairs {
-                sheet.push((v.clean.clone(), out, v.underwater.clone()));
+                sheet.push((v.name.clone(), v.clean.clone(), out, v.underwater.clone()));
             }
         }
         let n = per_pair.len().max(1) as f64;
@@ -597,26 +606,25 @@ impl LogWindow {
     }
 }
 
-/// Creates the run folder and writes `config.json`, or checks it on resume.
-fn prepare_run_dir(cfg: &TrainConfig, run: &Path, resume: bool) -> Result<()> {
+/// On resume, the run's `config.json` must equal `cfg`.
+fn check_saved_config(cfg: &TrainConfig, run: &Path) -> Result<()> {
     let cfg_path = run.join(CONFIG_FILE);
-    if resume {
-        let saved = TrainConfig::from_json_file(&cfg_path)?;
-        if &saved != cfg {
-            return Err(TrainError::ConfigChanged { path: cfg_path });
-        }
-        return Ok(());
+    let saved = TrainConfig::from_json_file(&cfg_path)?;
+    if &saved != cfg {
+        return Err(TrainError::ConfigChanged { path: cfg_path });
     }
-    if cfg_path.exists() || run.join(CHECKPOINTS_DIR).exists() {
-        return Err(TrainError::RunExists {
-            dir: run.to_path_buf(),
-        });
-    }
+    Ok(())
+}
+
+/// Creates the run folder and writes its `config.json` (the text of the run's config); called
+/// on a fresh start once the data has loaded ([`check_run_folder`] has refused a folder holding
+/// a run, so what it replaces is what a failed start left).
+pub fn claim_run_folder(run: &Path, config_json: &str) -> Result<()> {
     std::fs::create_dir_all(run).map_err(|source| TrainError::Io {
         path: run.to_path_buf(),
         source,
     })?;
-    write_file(&cfg_path, &cfg.to_json()?)
+    write_file(&run.join(CONFIG_FILE), config_json)
 }
 
 fn write_file(path: &Path, text: &str) -> Result<()> {

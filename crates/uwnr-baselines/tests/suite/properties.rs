@@ -390,3 +390,90 @@ fn errors_name_the_problem() {
         "{err}"
     );
 }
+
+/// A reference with a strong colour cast `tint` (RGB) over the whole frame, a little texture and
+/// a brighter top (the open water the background search finds).
+fn cast_reference(rng: &mut ChaCha8Rng, tint: [f32; 3]) -> Image {
+    let (w, h) = (64, 48);
+    let mut data = vec![0.0f32; 3 * w * h];
+    for c in 0..3 {
+        for y in 0..h {
+            for x in 0..w {
+                let v = tint[c] * (1.0 - 0.5 * y as f32 / h as f32) + 0.04 * rng.random::<f32>();
+                data[(c * h + y) * w + x] = v.min(1.0);
+            }
+        }
+    }
+    Image::from_planar(w, h, 3, data).unwrap()
+}
+
+/// Mean of channel `c`.
+fn channel_mean(img: &Image, c: usize) -> f64 {
+    let p = img.plane(c);
+    p.iter().map(|&v| f64::from(v)).sum::<f64>() / p.len() as f64
+}
+
+#[test]
+fn a_strongly_cast_reference_gives_a_clearly_cast_seathru_render() {
+    let mut rng = ChaCha8Rng::seed_from_u64(41);
+    let method = Method::Seathru(SeathruParams {
+        coefficients: SeathruCoefficients::FromReference(ReferenceCoefficients::default()),
+        ..SeathruParams::default()
+    });
+    // Cyan-blue, blue-green and green casts, as in real underwater photos (red nearly gone).
+    let tints = [
+        [0.05, 0.5, 0.9],
+        [0.1, 0.7, 0.7],
+        [0.15, 0.6, 0.35],
+        [0.02, 0.35, 0.6],
+    ];
+    for (i, tint) in tints.into_iter().enumerate() {
+        let reference = cast_reference(&mut rng, tint);
+        // A colourful, balanced clean photo and a depth that grows towards the top.
+        let (w, h) = (48, 40);
+        let clean = random_image(&mut rng, w, h, 3);
+        let depth_data: Vec<f32> = (0..w * h)
+            .map(|k| 0.2 + 0.8 * (1.0 - (k / w) as f32 / h as f32))
+            .collect();
+        let depth = Image::from_planar(w, h, 1, depth_data).unwrap();
+        for seed in 0..6 {
+            let input = RenderInput {
+                clean: &clean,
+                depth: &depth,
+                reference: Some(&reference),
+            };
+            let out = render(&method, &input, seed).unwrap();
+            let change = (0..3)
+                .map(|c| {
+                    let (a, b) = (out.image.plane(c), clean.plane(c));
+                    a.iter()
+                        .zip(b)
+                        .map(|(x, y)| f64::from((x - y).abs()))
+                        .sum::<f64>()
+                        / a.len() as f64
+                })
+                .sum::<f64>()
+                / 3.0;
+            // The render takes on the cast: red falls behind the stronger of green and blue by
+            // a clear margin, where the clean image has them level.
+            let (r, g, b) = (
+                channel_mean(&out.image, 0),
+                channel_mean(&out.image, 1),
+                channel_mean(&out.image, 2),
+            );
+            let clean_gap =
+                channel_mean(&clean, 1).max(channel_mean(&clean, 2)) - channel_mean(&clean, 0);
+            assert!(
+                change * 255.0 > 15.0,
+                "tint {i} seed {seed}: mean change {:.1}/255 ({})",
+                change * 255.0,
+                out.params
+            );
+            assert!(
+                g.max(b) - r > clean_gap + 0.12,
+                "tint {i} seed {seed}: rgb means {r:.3} {g:.3} {b:.3} ({})",
+                out.params
+            );
+        }
+    }
+}

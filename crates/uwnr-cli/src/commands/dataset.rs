@@ -48,6 +48,7 @@ pub fn run(a: &DatasetArgs) -> Result<ExitCode> {
 
 fn renderer(a: &DatasetMakeArgs) -> Result<Renderer> {
     let have_refs = !a.references.is_empty();
+    super::method::refuse_inapplicable(&[a.method], &a.baseline, have_refs)?;
     if let Some(method) = super::method::baseline_method(a.method, &a.baseline, have_refs)? {
         return Ok(Renderer::Baseline(method));
     }
@@ -142,7 +143,19 @@ fn make(a: &DatasetMakeArgs) -> Result<ExitCode> {
     if summary.complete && a.shard.is_none() {
         eprintln!("wrote {}", out.join("manifest.jsonl").display());
     }
-    Ok(if summary.failures.is_empty() {
+    if !summary.complete {
+        let made = summary.rendered + summary.skipped;
+        eprintln!(
+            "uwnr: incomplete: {made} of {} planned pairs made{}; run the same command again to finish",
+            summary.planned,
+            summary
+                .worker_errors
+                .first()
+                .map(|e| format!(" (a worker could not start: {e})"))
+                .unwrap_or_default()
+        );
+    }
+    Ok(if summary.ok() {
         ExitCode::SUCCESS
     } else {
         ExitCode::FAILURE

@@ -103,18 +103,9 @@ pub fn run(a: &ExperimentArgs) -> Result<ExitCode> {
     }
 }
 
-fn method_name(m: MethodArg) -> &'static str {
-    match m {
-        MethodArg::Uwnr => "uwnr",
-        MethodArg::Jerlov => "jerlov",
-        MethodArg::Uisa => "uisa",
-        MethodArg::Seathru => "seathru",
-        MethodArg::Reinhard => "reinhard",
-    }
-}
-
 fn training_sets(a: &DownstreamArgs) -> Result<Vec<TrainingSet>> {
     let have_refs = !a.references.is_empty();
+    super::method::refuse_inapplicable(&a.methods, &a.baseline, have_refs)?;
     let mut sets = Vec::new();
     for &m in &a.methods {
         let renderer = match super::method::baseline_method(m, &a.baseline, have_refs)? {
@@ -122,7 +113,7 @@ fn training_sets(a: &DownstreamArgs) -> Result<Vec<TrainingSet>> {
             None => super::network_renderer(&a.model)?,
         };
         sets.push(TrainingSet {
-            name: method_name(m).to_string(),
+            name: super::method::method_name(m).to_string(),
             renderer,
         });
     }

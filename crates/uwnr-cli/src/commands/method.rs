@@ -12,7 +12,94 @@ fn range((min, max): (f64, f64)) -> Range {
     Range { min, max }
 }
 
-/// The baseline named by `--method` with its flags applied; `None` for `uwnr`.
+/// Refuses a baseline option that none of `methods` uses, with one line naming the option and
+/// the method(s): an option that does not apply is a mistake, not something to ignore.
+pub fn refuse_inapplicable(
+    methods: &[MethodArg],
+    o: &BaselineOpts,
+    have_reference: bool,
+) -> Result<()> {
+    use MethodArg::{Jerlov, Reinhard, Seathru, Uisa};
+    let seathru_given = o.seathru == Some(SeathruSource::Given);
+    // Sea-thru takes its coefficients from the reference when one is given, unless told.
+    let seathru_fitted = match o.seathru {
+        Some(SeathruSource::Reference) => true,
+        Some(_) => false,
+        None => have_reference && o.method_config.is_none(),
+    };
+    // (flag, is it set, the methods it applies to)
+    let flags: [(&str, bool, &[MethodArg]); 9] = [
+        (
+            "--method-config",
+            o.method_config.is_some(),
+            &[Jerlov, Uisa, Seathru, Reinhard],
+        ),
+        ("--water-type", o.water_type.is_some(), &[Jerlov]),
+        ("--depth-scale", o.depth_scale.is_some(), &[Jerlov, Seathru]),
+        ("--seathru", o.seathru.is_some(), &[Seathru]),
+        ("--beta-d", o.beta_d.is_some(), &[Seathru]),
+        ("--beta-b", o.beta_b.is_some(), &[Seathru]),
+        ("--b-inf", o.b_inf.is_some(), &[Seathru]),
+        ("--reinhard-space", o.reinhard_space.is_some(), &[Reinhard]),
+        ("--mean-only", o.mean_only, &[Reinhard]),
+    ];
+    let names = || {
+        methods
+            .iter()
+            .map(|&m| method_name(m))
+            .collect::<Vec<_>>()
+            .join(",")
+    };
+    for (flag, set, applies) in flags {
+        if set && !methods.iter().any(|m| applies.contains(m)) {
+            let to = applies.iter().map(|&m| method_name(m)).collect::<Vec<_>>();
+            bail!(
+                "{flag} does not apply to --method {} (only to {})",
+                names(),
+                to.join(", ")
+            );
+        }
+    }
+    if o.depth_scale.is_some()
+        && methods.contains(&Seathru)
+        && !methods.contains(&Jerlov)
+        && seathru_fitted
+    {
+        bail!(
+            "--depth-scale does not apply to --method seathru with coefficients from the \
+             reference (the fit gives the distance)"
+        );
+    }
+    if o.background_depth.is_some() {
+        let jerlov = methods.contains(&Jerlov);
+        let seathru = methods.contains(&Seathru);
+        if seathru && !jerlov && seathru_given {
+            bail!("--background-depth does not apply to --method seathru with --seathru given");
+        }
+        if !jerlov && !seathru {
+            bail!(
+                "--background-depth does not apply to --method {} (only to jerlov, seathru)",
+                names()
+            );
+        }
+    }
+    Ok(())
+}
+
+/// The name `--method` gives a method.
+#[must_use]
+pub fn method_name(m: MethodArg) -> &'static str {
+    match m {
+        MethodArg::Uwnr => "uwnr",
+        MethodArg::Jerlov => "jerlov",
+        MethodArg::Uisa => "uisa",
+        MethodArg::Seathru => "seathru",
+        MethodArg::Reinhard => "reinhard",
+    }
+}
+
+/// The baseline named by `--method` with its flags applied; `None` for `uwnr`. Callers first
+/// refuse flags that apply to none of their methods ([`refuse_inapplicable`]).
 pub fn baseline_method(
     method: MethodArg,
     o: &BaselineOpts,
@@ -29,12 +116,7 @@ pub fn baseline_method(
         None => None,
     };
     let mut m = match method {
-        MethodArg::Uwnr => {
-            if from_file.is_some() {
-                bail!("--method-config needs --method jerlov|uisa|seathru|reinhard");
-            }
-            return Ok(None);
-        }
+        MethodArg::Uwnr => return Ok(None),
         MethodArg::Jerlov => match from_file {
             Some(m @ Method::Jerlov(_)) => m,
             None => Method::Jerlov(JerlovParams::default()),
@@ -65,12 +147,8 @@ pub fn baseline_method(
     };
     match &mut m {
         Method::Jerlov(p) => {
-            if let Some(t) = &o.water_type {
-                let wt: WaterType = serde_json::from_value(serde_json::Value::String(t.clone()))
-                    .with_context(|| {
-                        format!("unknown water type {t:?} (I, IA, IB, II, III, 1C, 3C, 5C, 7C, 9C)")
-                    })?;
-                p.water_type = Some(wt);
+            if let Some(t) = o.water_type {
+                p.water_type = Some(WaterType::from(t));
             }
             if let Some(r) = o.depth_scale {
                 p.depth_scale = range(r);
@@ -115,13 +193,8 @@ pub fn baseline_method(
             }
         }
         Method::Reinhard(p) => {
-            if let Some(s) = &o.reinhard_space {
-                p.space = match s.to_ascii_lowercase().as_str() {
-                    "lalphabeta" | "lab-ruderman" => ColourSpace::LAlphaBeta,
-                    "lab" | "cielab" => ColourSpace::Lab,
-                    "rgb" => ColourSpace::Rgb,
-                    _ => bail!("unknown Reinhard colour space {s:?} (lalphabeta, lab or rgb)"),
-                };
+            if let Some(s) = o.reinhard_space {
+                p.space = ColourSpace::from(s);
             }
             if o.mean_only {
                 p.match_std = false;

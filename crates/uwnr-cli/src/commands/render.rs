@@ -46,6 +46,7 @@ pub fn run(a: &RenderArgs) -> Result<ExitCode> {
     } else {
         expand_images(&a.reference, "reference")?
     };
+    super::method::refuse_inapplicable(&[a.method], &a.baseline, !refs.is_empty())?;
     let baseline = super::method::baseline_method(a.method, &a.baseline, !refs.is_empty())?;
     if baseline.is_none() && refs.is_empty() {
         bail!("--method uwnr needs --reference (a real underwater image whose style is rendered)");

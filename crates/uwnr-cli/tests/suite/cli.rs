@@ -418,3 +418,97 @@ fn convert_writes_half_precision_weights_that_render_alike() {
     assert!(!o.status.success());
     assert_eq!(stderr(&o).trim().lines().count(), 1, "{}", stderr(&o));
 }
+
+#[test]
+fn options_that_do_not_apply_to_the_method_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out.png");
+    let (clean, reference, w) = (
+        sample("clean-statues.jpg"),
+        sample("ref-blue.jpg"),
+        weights(),
+    );
+    let base = |extra: &[&str]| {
+        let mut args = vec![
+            "render",
+            s(&clean),
+            "--reference",
+            s(&reference),
+            "--weights",
+            s(&w),
+            "--output",
+            s(&out),
+        ];
+        args.extend_from_slice(extra);
+        uwnr(&args)
+    };
+    let cases: [(&[&str], &str, &str); 7] = [
+        (&["--water-type", "3C"], "--water-type", "uwnr"),
+        (
+            &["--method", "uisa", "--water-type", "3C"],
+            "--water-type",
+            "uisa",
+        ),
+        (
+            &["--method", "jerlov", "--reinhard-space", "lab"],
+            "--reinhard-space",
+            "jerlov",
+        ),
+        (
+            &["--method", "seathru", "--mean-only"],
+            "--mean-only",
+            "seathru",
+        ),
+        (
+            &[
+                "--method",
+                "seathru",
+                "--seathru",
+                "given",
+                "--background-depth",
+                "3,4",
+            ],
+            "--background-depth",
+            "--seathru given",
+        ),
+        (
+            &["--method", "reinhard", "--beta-d", "1,1,1"],
+            "--beta-d",
+            "reinhard",
+        ),
+        (
+            &["--method", "seathru", "--depth-scale", "1,2"],
+            "--depth-scale",
+            "reference",
+        ),
+    ];
+    for (extra, flag, method) in cases {
+        let o = base(extra);
+        let err = stderr(&o);
+        assert!(!o.status.success(), "{extra:?} was accepted");
+        assert_eq!(
+            err.trim().lines().count(),
+            1,
+            "{extra:?}: not one line: {err}"
+        );
+        assert!(
+            err.contains(flag) && err.contains(method),
+            "{extra:?}: {err}"
+        );
+        assert!(!out.exists(), "{extra:?} rendered");
+    }
+    // The enums refuse unknown values at parse time and accept the paper's spelling in any case.
+    let o = base(&["--method", "jerlov", "--water-type", "4C"]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("4C"), "{}", stderr(&o));
+    let o = base(&["--method", "jerlov", "--water-type", "3c", "--seed", "1"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = base(&[
+        "--method",
+        "reinhard",
+        "--reinhard-space",
+        "cielab",
+        "--mean-only",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+}

@@ -183,6 +183,14 @@ fn tiny_downstream_run_writes_a_well_formed_table() {
     );
     assert_eq!(std::fs::read_to_string(out.join("results.md")).unwrap(), md);
 
+    // A row killed before its first checkpoint (its config written, no checkpoint) starts again.
+    let row = out.join("runs").join("jerlov");
+    assert!(row.join("config.json").is_file());
+    std::fs::remove_dir_all(row.join("checkpoints")).unwrap();
+    let o = uwnr(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(row.join("checkpoints").join("last").is_dir());
+
     // Other settings in the same folder are refused, naming the field.
     let mut changed: Vec<&str> = args.to_vec();
     let at = changed.iter().position(|a| *a == "--budget").unwrap();

@@ -382,3 +382,21 @@ fn image_paths_by_extension() {
         assert!(!is_image_path(Path::new(p)), "{p}");
     }
 }
+
+#[test]
+fn paths_read_from_files_must_stay_inside_their_folder() {
+    use uwnr_core::io::stays_inside;
+    for ok in ["a.png", "underwater/a_0.png", "./clean/x.jpg", "a..b/c"] {
+        assert!(stays_inside(Path::new(ok)), "{ok}");
+    }
+    for bad in [
+        "",
+        ".",
+        "../secret.txt",
+        "clean/../../x",
+        "/etc/passwd",
+        "a/../b",
+    ] {
+        assert!(!stays_inside(Path::new(bad)), "{bad}");
+    }
+}

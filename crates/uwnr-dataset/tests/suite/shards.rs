@@ -81,3 +81,70 @@ fn merging_refuses_a_missing_or_unfinished_shard() {
     assert!(err.to_string().contains("shard 1/2 lacks 1"), "{err}");
     assert!(!out.join("manifest.jsonl").exists());
 }
+
+/// Rewrites the first line of a manifest so its underwater file is `path`.
+fn craft_first_line(manifest: &std::path::Path, path: &str) {
+    let text = std::fs::read_to_string(manifest).unwrap();
+    let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+    let mut r: serde_json::Value = serde_json::from_str(&lines[0]).unwrap();
+    r["underwater"] = serde_json::Value::String(path.into());
+    lines[0] = r.to_string();
+    std::fs::write(manifest, lines.join("\n") + "\n").unwrap();
+}
+
+#[test]
+fn manifest_paths_outside_the_folder_are_refused_by_merge_verify_and_resume() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (clean, refs) = inputs(tmp.path(), 4, 2);
+    let sp = spec(&clean, &refs, 1);
+    std::fs::write(tmp.path().join("secret.txt"), b"not for the dataset").unwrap();
+    for crafted in [
+        "../secret.txt",
+        "underwater/../../../../x.png",
+        "/etc/hostname",
+    ] {
+        let shard = tmp.path().join("shard0");
+        let _ = std::fs::remove_dir_all(&shard);
+        let mut o = opts(1);
+        o.shard = Some(Shard { index: 0, count: 1 });
+        run(&shard, &sp, &reinhard(), &o);
+        let manifest = shard.join("manifest.shard-0-of-1.jsonl");
+        craft_first_line(&manifest, crafted);
+        let merged = tmp.path().join("merged");
+        let _ = std::fs::remove_dir_all(&merged);
+        // Merge (copying from the shard folder) refuses, naming the file and the line.
+        let err = uwnr_dataset::merge(&merged, std::slice::from_ref(&shard), true)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("manifest.shard-0-of-1.jsonl") && err.contains("line 1"),
+            "{crafted}: {err}"
+        );
+        assert_eq!(err.lines().count(), 1, "{err}");
+        assert!(!tmp.path().join("x.png").exists());
+        assert!(!merged.join("manifest.jsonl").exists());
+        // Verify reports it.
+        let report = uwnr_dataset::verify(&shard, &|_, _| {}).unwrap();
+        assert!(!report.ok());
+        assert!(
+            report
+                .problems
+                .iter()
+                .any(|p| p.contains("line 1") && p.contains(crafted)),
+            "{:?}",
+            report.problems
+        );
+        // Resuming the shard refuses it too.
+        let err = uwnr_dataset::generate(
+            &shard,
+            &sp,
+            &reinhard(),
+            &o,
+            &std::sync::atomic::AtomicBool::new(false),
+            &mut |_| {},
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(err.contains("line 1"), "{crafted}: {err}");
+    }
+}

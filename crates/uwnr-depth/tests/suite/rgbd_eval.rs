@@ -3,7 +3,7 @@
 //! LiDAR, metres x 256; SUN RGB-D: 16-bit). Pixels without depth (0, or 65535) are skipped.
 //!
 //! Run: `cargo test -p uwnr-depth --test suite rgbd_eval -- --ignored --nocapture`
-//! (skips with a message when the data folder is absent).
+//! (fails, naming the folder, when the data folder is absent).
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -95,10 +95,7 @@ struct Row {
 #[ignore = "needs ../shared/data/rgbd; run with --ignored --nocapture to print the table"]
 fn builtin_against_vertical_ramp() {
     let root = data_root();
-    if !root.is_dir() {
-        println!("SKIP: {} not found", root.display());
-        return;
-    }
+    assert!(root.is_dir(), "{} not found", root.display());
     let limits = DecodeLimits::default();
     let mut rows = Vec::new();
     println!(

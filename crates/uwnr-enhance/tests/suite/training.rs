@@ -239,16 +239,24 @@ fn bad_data_gives_clear_errors() {
     let few = make_dir(&tmp.path().join("few"), 2, 32, 32);
     std::fs::write(few.join("underwater/001.png"), b"not a png").unwrap();
     std::fs::write(few.join("underwater/lonely.png"), b"").unwrap();
-    let err = attempt(vec![few], "r4");
+    let mut report = String::new();
+    let o = EnhanceTrainOptions::new(vec![few], tmp.path().join("r4"), Device::flex());
+    let err = train(&cfg, &o, &AtomicBool::new(false), &mut |e| {
+        if let EnhanceEvent::Message(m) = e {
+            report.push_str(m);
+        }
+    })
+    .unwrap_err();
     assert!(
         matches!(err, EnhanceError::Train(TrainError::NoData(_))),
         "{err}"
     );
-    let report = std::fs::read_to_string(tmp.path().join("r4/data-report.txt")).unwrap();
     assert!(
         report.contains("lonely.png") && report.contains("001.png"),
         "{report}"
     );
+    // A start that failed leaves no run folder behind.
+    assert!(!tmp.path().join("r4").exists());
     // Resuming a folder without a run.
     let good = make_dir(&tmp.path().join("good"), 2, 32, 32);
     let mut o = EnhanceTrainOptions::new(vec![good], tmp.path().join("nothing"), Device::flex());

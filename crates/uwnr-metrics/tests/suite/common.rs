@@ -1,7 +1,5 @@
 //! Shared helpers of the integration tests: fixture paths and 8-bit PNG loading.
 
-#![allow(dead_code)]
-
 use std::path::PathBuf;
 
 use uwnr_core::Image;

@@ -287,3 +287,34 @@ fn bad_data_is_reported() {
     o.resume = true;
     assert!(train(&cfg, &o, &AtomicBool::new(false), &mut |_| {}).is_err());
 }
+
+#[test]
+fn a_failed_start_does_not_claim_the_run_folder() {
+    let tmp = tempfile::tempdir().unwrap();
+    let empty = tmp.path().join("empty");
+    std::fs::create_dir_all(empty.join("underwater")).unwrap();
+    std::fs::create_dir_all(empty.join("clean")).unwrap();
+    let run_dir = tmp.path().join("run");
+    let cfg = tiny_config(1);
+    let stop = AtomicBool::new(false);
+    // Bad data: the start fails and leaves no run behind.
+    let bad = TrainOptions::new(vec![empty], run_dir.clone(), Device::flex());
+    assert!(train(&cfg, &bad, &stop, &mut |_| {}).is_err());
+    assert!(!run_dir.join("config.json").exists());
+    // A folder that a killed first session left (config, no checkpoint) is not a run either.
+    std::fs::create_dir_all(&run_dir).unwrap();
+    std::fs::write(run_dir.join("config.json"), "{}").unwrap();
+    let mut resume = bad.clone();
+    resume.resume = true;
+    let err = train(&cfg, &resume, &stop, &mut |_| {}).unwrap_err();
+    assert!(err.to_string().contains("no checkpoint"), "{err}");
+    // The same command with good data starts the run.
+    let data = make_dir(&tmp.path().join("data"), 2, 32, 32, "png");
+    let good = TrainOptions::new(vec![data], run_dir.clone(), Device::flex());
+    let s = run(&cfg, &good, None);
+    assert!(s.finished);
+    assert!(uwnr_train::checkpoint::holds_run(&run_dir));
+    // Now it holds a run: a fresh start is refused.
+    let err = train(&cfg, &good, &stop, &mut |_| {}).unwrap_err();
+    assert!(matches!(err, TrainError::RunExists { .. }), "{err}");
+}
