@@ -311,6 +311,13 @@ struct NativeRenderer {
     source: String,
 }
 
+/// One item of `render_batch` as Python passes it: clean pixels, reference, depth.
+type BatchItem<'py> = (
+    Pixels<'py>,
+    Option<Bound<'py, NativeReference>>,
+    Option<Pixels<'py>>,
+);
+
 /// One item of a render: the clean image, its reference and optional depth.
 struct Job<'a> {
     clean: PixelView<'a>,
@@ -591,11 +598,7 @@ impl NativeRenderer {
     fn render_batch<'py>(
         &self,
         py: Python<'py>,
-        items: Vec<(
-            Pixels<'py>,
-            Option<Bound<'py, NativeReference>>,
-            Option<Pixels<'py>>,
-        )>,
+        items: Vec<BatchItem<'py>>,
         seed: Option<u64>,
     ) -> PyResult<Vec<Bound<'py, PyBytes>>> {
         let seed = seed.unwrap_or(self.seed);
