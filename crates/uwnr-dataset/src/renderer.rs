@@ -226,16 +226,12 @@ mod tests {
             uwnr_core::io::save_rgb(&refs.join(format!("r{k}.png")), &img).unwrap();
         }
         let config = GeneratorConfig::with_base_width(8);
-        let device = Device::flex();
+        let device = uwnr_model::Device::flex();
         let generator = config.init(&device).unwrap();
-        let renderer = Renderer::network(
-            generator,
-            config,
-            RenderOptions::default(),
-            device,
-            "test".into(),
-            b"",
-        );
+        let network =
+            uwnr_model::Network::from_generator(&generator, &config, &uwnr_model::Backend::Engine)
+                .unwrap();
+        let renderer = Renderer::network(network, RenderOptions::default(), "test".into(), b"");
         // A worker takes its copy of the network under the lock: a poisoned lock stops every
         // worker from starting.
         let Renderer::Network(n) = &renderer else {
