@@ -6,6 +6,9 @@
 //! warm-up, one `RESULT <path> <size> <ms>` line per measurement, and `PEAK <GFLOP/s>`: the FP32
 //! FMA throughput of this machine on that many threads (independent FMA chains, AVX2+FMA).
 
+// The peak measurement calls `std::arch` FMA intrinsics, which are unsafe.
+#![allow(unsafe_code)]
+
 use std::hint::black_box;
 use std::time::Instant;
 
