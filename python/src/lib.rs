@@ -490,7 +490,6 @@ impl NativeRenderer {
         }
         let options: Value = serde_json::from_str(options_json)
             .map_err(|e| PyValueError::new_err(format!("method options: {e}")))?;
-        let has_options = matches!(&options, Value::Object(m) if !m.is_empty());
         if method == "uwnr" {
             if let Value::Object(m) = &options
                 && let Some(key) = m.keys().next()
@@ -527,11 +526,6 @@ impl NativeRenderer {
                 "weights apply only to method uwnr, not {method}"
             )));
         }
-        let options = if has_options {
-            options
-        } else {
-            Value::Object(serde_json::Map::new())
-        };
         let (method, without_reference) = baseline(method, &options)?;
         let source = serde_json::to_string(&method).unwrap_or_default();
         Ok(Self {
@@ -640,7 +634,7 @@ fn builtin_depth<'py>(py: Python<'py>, clean: Pixels<'py>) -> PyResult<Bound<'py
     let depth = compute(py, || {
         uwnr_depth::builtin_depth(&rgb_image(&view)?).map_err(model)
     })?;
-    Ok(depth_bytes(py, &depth))
+    Ok(image_bytes(py, &depth, Dtype::F32))
 }
 
 /// Decodes an image file with uwnr's decoder (as `uwnr render` reads its inputs): f32 RGB bytes,
@@ -651,15 +645,6 @@ fn load_rgb(py: Python<'_>, path: PathBuf) -> PyResult<(Bound<'_, PyBytes>, usiz
         uwnr_core::io::load_rgb(&path, &uwnr_core::io::DecodeLimits::default()).map_err(value)
     })?;
     Ok((image_bytes(py, &img, Dtype::F32), img.height(), img.width()))
-}
-
-/// A 1-channel image's f32 bytes.
-fn depth_bytes<'py>(py: Python<'py>, depth: &Image) -> Bound<'py, PyBytes> {
-    let mut bytes = Vec::with_capacity(depth.plane(0).len() * F32_BYTES);
-    for v in depth.plane(0) {
-        bytes.extend_from_slice(&v.to_ne_bytes());
-    }
-    PyBytes::new(py, &bytes)
 }
 
 /// The metric `name` of `pred` against `target` (full-reference) or of `pred` alone.
