@@ -31,7 +31,7 @@ use uwnr_baselines::{
 use uwnr_core::Image;
 use uwnr_core::lightfield::{LightFieldMap, light_field_with};
 use uwnr_dataset::renderer::{ReferenceInput, Renderer as DatasetRenderer};
-use uwnr_model::RenderOptions;
+use uwnr_model::{GeneratorConfig, ReferenceStyle, RenderOptions};
 
 create_exception!(
     _uwnr,
@@ -225,6 +225,7 @@ struct NativeReference {
     image: Image,
     paper: OnceLock<Result<Image, String>>,
     absolute: OnceLock<Result<Image, String>>,
+    water: OnceLock<Result<uwnr_model::Water, String>>,
 }
 
 impl NativeReference {
@@ -238,6 +239,24 @@ impl NativeReference {
             .as_ref()
             .map_err(|e| Failure::Model(format!("light field of the reference: {e}")))
     }
+
+    /// What a network with `config` takes of this reference.
+    fn style(&self, config: &GeneratorConfig) -> Result<ReferenceStyle, Failure> {
+        let light_field = self.field(config.light_field)?.clone();
+        let water = match config.variant {
+            uwnr_model::Variant::Paper => None,
+            uwnr_model::Variant::Anchored => Some(
+                *self
+                    .water
+                    .get_or_init(|| {
+                        uwnr_model::style::estimate_water(&self.image).map_err(|e| e.to_string())
+                    })
+                    .as_ref()
+                    .map_err(|e| Failure::Model(format!("water of the reference: {e}")))?,
+            ),
+        };
+        Ok(ReferenceStyle { light_field, water })
+    }
 }
 
 #[pymethods]
@@ -250,6 +269,7 @@ impl NativeReference {
             image,
             paper: OnceLock::new(),
             absolute: OnceLock::new(),
+            water: OnceLock::new(),
         })
     }
 
@@ -288,10 +308,10 @@ fn rgb_image(view: &PixelView<'_>) -> Result<Image, Failure> {
 
 /// What renders.
 enum Kind {
-    /// The UWNR network, with the light field map its weights were trained with.
+    /// The UWNR network, with the config its weights were trained with.
     Network {
         renderer: DatasetRenderer,
-        map: LightFieldMap,
+        config: GeneratorConfig,
     },
     /// A baseline; `without_reference` is the variant used when a call gives no reference
     /// (Sea-thru with no coefficients chosen: fitted from the reference when there is one,
@@ -355,13 +375,14 @@ impl NativeRenderer {
             None => uwnr_depth::builtin_depth(&clean).map_err(model)?,
         };
         match &self.kind {
-            Kind::Network { renderer, map } => {
+            Kind::Network { renderer, config } => {
                 let reference = job.reference.ok_or_else(|| {
                     Failure::Value("method uwnr needs a reference (a real underwater image)".into())
                 })?;
+                let style = reference.style(config)?;
                 let input = ReferenceInput {
                     image: None,
-                    light_field: reference.field(*map)?,
+                    style: &style,
                 };
                 let worker = renderer.worker().map_err(model)?;
                 let (out, _params) = worker
@@ -437,7 +458,7 @@ fn network(
     weights: Option<PathBuf>,
     device: &str,
     options: RenderOptions,
-) -> Result<(DatasetRenderer, LightFieldMap, String), Failure> {
+) -> Result<(DatasetRenderer, GeneratorConfig, String), Failure> {
     let backend = uwnr_model::backend_from_name(device).map_err(value)?;
     let (bytes, source): (std::borrow::Cow<'static, [u8]>, String) = match &weights {
         Some(path) => (
@@ -461,9 +482,9 @@ fn network(
     };
     let (network, _info) = uwnr_model::Network::load_from_bytes(&bytes, &backend)
         .map_err(|e| model(format!("loading weights {source}: {e}")))?;
-    let map = network.config().light_field;
+    let config = *network.config();
     let renderer = DatasetRenderer::network(network, options, source.clone(), &bytes);
-    Ok((renderer, map, source))
+    Ok((renderer, config, source))
 }
 
 #[pymethods]
@@ -514,9 +535,9 @@ impl NativeRenderer {
             };
             opts.validate()
                 .map_err(|e| PyValueError::new_err(e.to_string()))?;
-            let (renderer, map, source) = compute(py, || network(weights, device, opts))?;
+            let (renderer, config, source) = compute(py, || network(weights, device, opts))?;
             return Ok(Self {
-                kind: Kind::Network { renderer, map },
+                kind: Kind::Network { renderer, config },
                 seed,
                 source,
             });
@@ -560,7 +581,7 @@ impl NativeRenderer {
     #[getter]
     fn light_field_map(&self) -> Option<&'static str> {
         match &self.kind {
-            Kind::Network { map, .. } => Some(map.name()),
+            Kind::Network { config, .. } => Some(config.light_field.name()),
             Kind::Baseline { .. } => None,
         }
     }

@@ -102,11 +102,13 @@ fn convert(img: &Image, space: ColourSpace) -> Vec<[f64; 3]> {
         .collect()
 }
 
-/// Per-channel mean and population standard deviation.
-#[derive(Clone, Copy, Debug)]
-struct ChannelStats {
-    mean: [f64; 3],
-    std: [f64; 3],
+/// Per-channel mean and population standard deviation of an image in a colour space.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ChannelStats {
+    /// Mean of each channel.
+    pub mean: [f64; 3],
+    /// Population standard deviation of each channel.
+    pub std: [f64; 3],
 }
 
 /// Per-channel mean and population standard deviation of the pixels.
@@ -166,6 +168,24 @@ fn transfer_with_stats(
     check_image(reference, "reference", 3)?;
     let target = stats(&convert(reference, space));
     let matched = match_statistics(convert(clean, space), target, match_std);
+    Ok((to_image(clean, matched, space)?, target))
+}
+
+/// The statistics of `reference` in `space` that [`transfer`] matches.
+pub fn reference_stats(reference: &Image, space: ColourSpace) -> Result<ChannelStats> {
+    check_image(reference, "reference", 3)?;
+    Ok(stats(&convert(reference, space)))
+}
+
+/// [`transfer`] to statistics computed before ([`reference_stats`]): the same result as
+/// transferring to the image they came from.
+pub fn transfer_to_stats(clean: &Image, target: ChannelStats, space: ColourSpace) -> Result<Image> {
+    check_image(clean, "clean image", 3)?;
+    let matched = match_statistics(convert(clean, space), target, true);
+    to_image(clean, matched, space)
+}
+
+fn to_image(clean: &Image, matched: Vec<[f64; 3]>, space: ColourSpace) -> Result<Image> {
     let rgb: Vec<[f64; 3]> = matched
         .into_par_iter()
         .with_min_len(PAR_CHUNK)
@@ -179,7 +199,7 @@ fn transfer_with_stats(
             data[c * n + i] = p[c].clamp(0.0, 1.0) as f32;
         }
     }
-    Ok((Image::from_planar(w, h, 3, data)?, target))
+    Ok(Image::from_planar(w, h, 3, data)?)
 }
 
 /// Transfers the colour statistics of `reference` onto `clean` in `space`.
@@ -264,6 +284,18 @@ mod tests {
         };
         let out = match_statistics(flat, target, true);
         assert!(out.iter().all(|p| *p == [0.5; 3]), "{out:?}");
+    }
+
+    #[test]
+    fn transfer_to_saved_stats_equals_transfer() {
+        let clean = gradient(16, 12, [1.0, 0.9, 0.7]);
+        let reference = gradient(8, 8, [0.2, 0.6, 0.9]);
+        for space in [ColourSpace::LAlphaBeta, ColourSpace::Lab] {
+            let st = reference_stats(&reference, space).unwrap();
+            let a = transfer_to_stats(&clean, st, space).unwrap();
+            let b = transfer(&clean, &reference, space).unwrap();
+            assert_eq!(a, b, "{space:?}");
+        }
     }
 
     #[test]

@@ -6,7 +6,7 @@ use std::sync::Mutex;
 use serde_json::json;
 use uwnr_baselines::{Method, RenderInput, SeathruCoefficients};
 use uwnr_core::Image;
-use uwnr_model::{GeneratorConfig, Network as Generator, RenderOptions};
+use uwnr_model::{GeneratorConfig, Network as Generator, ReferenceStyle, RenderOptions};
 
 use crate::error::{DatasetError, Result};
 
@@ -73,13 +73,16 @@ impl Renderer {
             .map_err(|e| DatasetError::Invalid(format!("cannot record the method's settings: {e}")))
     }
 
-    /// The light-field map references are turned into (the network's config says which; the
-    /// baselines do not read it, so the released map is saved for them).
-    #[must_use]
-    pub fn light_field_map(&self) -> uwnr_core::lightfield::LightFieldMap {
+    /// What a render takes of the decoded reference `img`: for the network its style (light
+    /// field in the map its config names, and the water for the anchored variant); the
+    /// baselines do not read a light field, so the released map is kept for them (saved with
+    /// `--save-lightfield`).
+    pub fn reference_style(&self, img: &Image) -> std::result::Result<ReferenceStyle, String> {
         match self {
-            Self::Network(n) => n.config.light_field,
-            Self::Baseline(_) => uwnr_core::lightfield::LightFieldMap::Paper,
+            Self::Network(n) => ReferenceStyle::new(img, &n.config).map_err(|e| e.to_string()),
+            Self::Baseline(_) => uwnr_core::lightfield::light_field(img)
+                .map(ReferenceStyle::from_light_field)
+                .map_err(|e| e.to_string()),
         }
     }
 
@@ -145,8 +148,8 @@ pub enum Worker<'a> {
 pub struct ReferenceInput<'a> {
     /// The decoded reference (baselines).
     pub image: Option<&'a Image>,
-    /// The 256x256 light-field map (network).
-    pub light_field: &'a Image,
+    /// The reference's style (its 256x256 light-field map, and its water).
+    pub style: &'a ReferenceStyle,
 }
 
 impl Worker<'_> {
@@ -168,14 +171,8 @@ impl Worker<'_> {
         match self {
             Self::Network { generator, net } => {
                 let reference = reference.ok_or("the network needs a reference")?;
-                let lf = uwnr_core::resize::resize_bilinear(
-                    reference.light_field,
-                    clean.width(),
-                    clean.height(),
-                )
-                .map_err(|e| e.to_string())?;
                 let out = generator
-                    .render(clean, depth, &lf, &net.options)
+                    .render(clean, depth, reference.style, &net.options)
                     .map_err(|e| format!("rendering: {e}"))?;
                 Ok((out, json!({ "weights": net.weights })))
             }

@@ -26,9 +26,9 @@ use std::time::Instant;
 
 use uwnr_core::Image;
 use uwnr_core::io::{DecodeLimits, load_rgb, save_gray16, save_rgb};
-use uwnr_core::lightfield::{LightFieldMap, light_field_with};
 use uwnr_core::resize::{U8Image, resize_bilinear};
 use uwnr_depth::{DepthSource, PreparedDepth};
+use uwnr_model::ReferenceStyle;
 
 use crate::error::{DatasetError, Result, io_err};
 use crate::manifest::{
@@ -129,7 +129,7 @@ enum Msg {
 }
 
 /// Per-reference light fields, each computed once; `Err` for unreadable references.
-type RefCache = Vec<OnceLock<std::result::Result<Arc<Image>, String>>>;
+type RefCache = Vec<OnceLock<std::result::Result<Arc<ReferenceStyle>, String>>>;
 
 /// Generates (or finishes) the dataset in `out`.
 ///
@@ -289,7 +289,7 @@ pub fn generate(
     let ctx = Context {
         out,
         method: renderer.name(),
-        light_field_map: renderer.light_field_map(),
+        renderer,
         spec,
         cleans: &cleans,
         names: &names,
@@ -419,8 +419,8 @@ struct Context<'a> {
     names: &'a [String],
     refs: &'a [PathBuf],
     ref_cache: RefCache,
-    /// How references become light fields (the network's config decides).
-    light_field_map: LightFieldMap,
+    /// Turns references into styles (the network's config decides how).
+    renderer: &'a Renderer,
     depth: &'a PreparedDepth,
     limits: &'a DecodeLimits,
     stop: &'a AtomicBool,
@@ -532,7 +532,7 @@ impl Context<'_> {
 
     /// The references of clean image `i`, in draw order: the first K readable ones of its
     /// seeded permutation. `None` when the receiver is gone.
-    fn draw(&self, i: usize, tx: &SyncSender<Msg>) -> Option<Vec<(usize, Arc<Image>)>> {
+    fn draw(&self, i: usize, tx: &SyncSender<Msg>) -> Option<Vec<(usize, Arc<ReferenceStyle>)>> {
         let mut chosen = Vec::with_capacity(self.spec.per_image);
         for r in ReferenceOrder::new(self.spec.seed, i, self.refs.len()) {
             if chosen.len() == self.spec.per_image {
@@ -543,9 +543,7 @@ impl Context<'_> {
                 let path = &self.refs[r];
                 let lf = load_rgb(path, self.limits)
                     .map_err(|e| e.to_string())
-                    .and_then(|img| {
-                        light_field_with(&img, self.light_field_map).map_err(|e| e.to_string())
-                    });
+                    .and_then(|img| self.renderer.reference_style(&img));
                 if let Err(reason) = &lf {
                     first_failure = Some(reason.clone());
                 }
@@ -577,7 +575,7 @@ impl Context<'_> {
         worker: &Worker<'_>,
         clean: &Image,
         depth: &Image,
-        reference: Option<&(usize, Arc<Image>)>,
+        reference: Option<&(usize, Arc<ReferenceStyle>)>,
         seed: u64,
         id: &str,
         save_lightfield: bool,
@@ -594,16 +592,13 @@ impl Context<'_> {
                     None
                 };
                 (
-                    Some(ReferenceInput {
-                        image,
-                        light_field: lf,
-                    }),
+                    Some(ReferenceInput { image, style: lf }),
                     Some(path.to_string_lossy().into_owned()),
                 )
             }
             None => (None, None),
         };
-        let lf = input.as_ref().map(|r| r.light_field);
+        let lf = input.as_ref().map(|r| &r.style.light_field);
         let (underwater, params) = worker.render(clean, depth, input, seed)?;
         let name = format!("{id}.png");
         let write = |dir: &str, f: &dyn Fn(&Path) -> uwnr_core::Result<()>| {

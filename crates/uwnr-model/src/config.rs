@@ -11,6 +11,7 @@ pub use uwnr_core::lightfield::LightFieldMap;
 
 use crate::error::{ModelError, Result};
 use crate::generator::Generator;
+pub use crate::style::Variant;
 
 /// Input channels of the released network: clean RGB (3), depth (1), light-field map (3).
 pub const PAPER_IN_CHANNELS: usize = 7;
@@ -44,6 +45,10 @@ pub struct GeneratorConfig {
     /// `paper`; files without the field are read as `paper`).
     #[serde(default)]
     pub light_field: LightFieldMap,
+    /// What the input and output planes mean (`paper`, the released network, or `anchored`:
+    /// [`crate::style`]); files without the field are read as `paper`.
+    #[serde(default)]
+    pub variant: Variant,
 }
 
 impl Default for GeneratorConfig {
@@ -53,6 +58,7 @@ impl Default for GeneratorConfig {
             out_channels: PAPER_OUT_CHANNELS,
             base_width: PAPER_BASE_WIDTH,
             light_field: LightFieldMap::Paper,
+            variant: Variant::Paper,
         }
     }
 }
@@ -67,9 +73,37 @@ impl GeneratorConfig {
         }
     }
 
+    /// The anchored variant ([`crate::style`]) at `base_width`, fed the `absolute` light field.
+    #[must_use]
+    pub fn anchored(base_width: usize) -> Self {
+        let (in_channels, out_channels) = Variant::Anchored.channels();
+        Self {
+            in_channels,
+            out_channels,
+            base_width,
+            light_field: LightFieldMap::Absolute,
+            variant: Variant::Anchored,
+        }
+    }
+
     /// Checks that every width is usable: non-zero channel counts and a base width that is a
     /// positive multiple of [`WIDTH_MULTIPLE`].
     pub fn validate(&self) -> Result<()> {
+        if self.variant == Variant::Anchored {
+            let (cin, cout) = Variant::Anchored.channels();
+            for (field, value, want) in [
+                ("in_channels", self.in_channels, cin),
+                ("out_channels", self.out_channels, cout),
+            ] {
+                if value != want {
+                    return Err(ModelError::InvalidConfig {
+                        field,
+                        value,
+                        reason: format!("the anchored variant has {want}"),
+                    });
+                }
+            }
+        }
         if self.in_channels == 0 {
             return Err(ModelError::InvalidConfig {
                 field: "in_channels",

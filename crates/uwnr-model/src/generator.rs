@@ -25,6 +25,7 @@ use burn::tensor::{Device, Tensor};
 
 use crate::config::{ATTENTION_REDUCTION, GeneratorConfig, LEVELS};
 use crate::error::{ModelError, Result};
+use crate::style::Variant;
 
 /// Negative slope of every LeakyReLU: FSU2.py calls `nn.LeakyReLU()` without an argument,
 /// i.e. PyTorch's default 0.01.
@@ -311,13 +312,24 @@ impl Generator {
             up2: Up::init(w(2), device),
             up3: Up::init(w(1), device),
             up4: Up::init(w(0), device),
-            out: conv(
-                config.decoder_out_width(),
-                config.out_channels,
-                3,
-                1,
-                device,
-            ),
+            out: match config.variant {
+                Variant::Paper => conv(
+                    config.decoder_out_width(),
+                    config.out_channels,
+                    3,
+                    1,
+                    device,
+                ),
+                // Zero output: the anchored variant starts exactly at its anchor.
+                Variant::Anchored => conv_from_tensors(
+                    Tensor::zeros(
+                        [config.out_channels, config.decoder_out_width(), 3, 3],
+                        device,
+                    ),
+                    Tensor::zeros([config.out_channels], device),
+                    1,
+                ),
+            },
         }
     }
 

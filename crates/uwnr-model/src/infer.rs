@@ -22,11 +22,13 @@
 
 use burn::tensor::{Device, Tensor, TensorData};
 use uwnr_core::Image;
+use uwnr_core::resize::resize_bilinear;
 use uwnr_engine::Planar;
 
 use crate::config::{LEVELS, SIZE_MULTIPLE};
 use crate::error::{ModelError, Result};
 use crate::generator::Generator;
+use crate::style::{ReferenceStyle, Variant, anchor, finish};
 use crate::weights::read_tensor;
 
 /// What tiled rendering needs of a generator implementation (burn's module or the engine),
@@ -128,16 +130,12 @@ impl Forward for uwnr_engine::Generator {
     }
 }
 
-/// Channels of the clean RGB image (input channels 0..3).
+/// Channels of the clean RGB image.
 const CLEAN_CHANNELS: usize = 3;
-/// Channels of the depth map (input channel 3).
+/// Channels of the depth map.
 const DEPTH_CHANNELS: usize = 1;
-/// Channels of the light-field map (input channels 4..7).
+/// Channels of the light-field map.
 const LIGHT_FIELD_CHANNELS: usize = 3;
-/// Input channels the generator must accept: clean, depth, light field.
-const INPUT_CHANNELS: usize = CLEAN_CHANNELS + DEPTH_CHANNELS + LIGHT_FIELD_CHANNELS;
-/// Output channels: RGB.
-const OUTPUT_CHANNELS: usize = 3;
 
 /// Half-width, in input pixels, of the generator's receptive field: the encoder's convs add
 /// 1+2 (level 1), 2+4, 4+8 and 8+16 (a stride-2 conv3x3 and the block's conv3x3 at spacings
@@ -205,11 +203,12 @@ impl RenderOptions {
 }
 
 /// Renders `clean` (3 channels) as an underwater image in the style of `light_field`
-/// (3 channels, the light-field map of a real underwater image), using `depth` (1 channel).
-/// All three must have the same size; the output has it too, with values in [0, 1].
+/// (3 channels, the light-field map of a real underwater image), using `depth` (1 channel),
+/// with a generator of the paper's variant. All three must have the same size; the output has
+/// it too, with values in [0, 1].
 ///
 /// This runs burn's module on `device`; [`crate::Network::render`] runs the engine or burn,
-/// whichever the network was loaded for.
+/// whichever the network was loaded for, and any variant.
 pub fn render(
     generator: &Generator,
     clean: &Image,
@@ -220,68 +219,42 @@ pub fn render(
 ) -> Result<Image> {
     render_with(
         &BurnForward { generator, device },
+        Variant::Paper,
         clean,
         depth,
-        light_field,
+        &ReferenceStyle::from_light_field(light_field.clone()),
         opts,
     )
 }
 
-/// [`render`] on any implementation of the generator.
+/// [`render`] on any implementation of the generator and any variant; the style's light field
+/// is resized to the clean image's size.
 pub(crate) fn render_with(
     generator: &dyn Forward,
+    variant: Variant,
     clean: &Image,
     depth: &Image,
-    light_field: &Image,
+    style: &ReferenceStyle,
     opts: &RenderOptions,
 ) -> Result<Image> {
     opts.validate()?;
-    check_inputs(generator, clean, depth, light_field)?;
     let (w, h) = clean.size();
-    let sources = [clean, depth, light_field];
-    let (hp, wp) = (padded(h), padded(w));
-    let out = if hp * wp <= opts.max_tile_pixels {
-        let region = Rect {
-            y0: 0,
-            x0: 0,
-            h: hp,
-            w: wp,
-        };
-        let x = input_tensor(&sources, region);
-        let y = generator.forward(x)?.data; // [3, hp, wp]
-        crop_to_image(&y, hp, wp, h, w)?
+    if w == 0 || h == 0 {
+        return Err(uwnr_core::CoreError::Empty {
+            width: w,
+            height: h,
+        }
+        .into());
+    }
+    let lf = if style.light_field.size() == clean.size() {
+        style.light_field.clone()
     } else {
-        render_tiled(generator, &sources, (hp, wp), (h, w), opts)?
+        resize_bilinear(&style.light_field, w, h)?
     };
-    let mut out = out;
-    out.clamp01();
-    Ok(out)
-}
-
-fn padded(n: usize) -> usize {
-    n.div_ceil(SIZE_MULTIPLE) * SIZE_MULTIPLE
-}
-
-fn check_inputs(generator: &dyn Forward, clean: &Image, depth: &Image, lf: &Image) -> Result<()> {
-    let (cin, cout) = generator.channels();
-    if cin != INPUT_CHANNELS {
-        return Err(ModelError::Channels {
-            what: "generator input",
-            expected: INPUT_CHANNELS,
-            got: cin,
-        });
-    }
-    if cout != OUTPUT_CHANNELS {
-        return Err(ModelError::Channels {
-            what: "generator output",
-            expected: OUTPUT_CHANNELS,
-            got: cout,
-        });
-    }
     for (what, im, expected) in [
         ("clean image", clean, CLEAN_CHANNELS),
         ("depth map", depth, DEPTH_CHANNELS),
-        ("light-field map", lf, LIGHT_FIELD_CHANNELS),
+        ("light-field map", &lf, LIGHT_FIELD_CHANNELS),
     ] {
         if im.channels() != expected {
             return Err(ModelError::Channels {
@@ -298,15 +271,67 @@ fn check_inputs(generator: &dyn Forward, clean: &Image, depth: &Image, lf: &Imag
             });
         }
     }
-    let (w, h) = clean.size();
-    if w == 0 || h == 0 {
-        return Err(uwnr_core::CoreError::Empty {
-            width: w,
-            height: h,
+    match variant {
+        Variant::Paper => {
+            let mut out = run(generator, variant, &[clean, depth, &lf], opts)?;
+            out.clamp01();
+            Ok(out)
         }
-        .into());
+        Variant::Anchored => {
+            let water = style.water.as_ref().ok_or_else(|| {
+                ModelError::InvalidOptions(
+                    "the anchored model needs the reference's water (ReferenceStyle::new)".into(),
+                )
+            })?;
+            let a = anchor(clean, water)?;
+            let raw = run(generator, variant, &[clean, &lf, &a], opts)?;
+            finish(&raw, &a, depth, water)
+        }
     }
-    Ok(())
+}
+
+/// The network's raw output for the stacked `sources` (whole image or tiled), unclamped.
+fn run(
+    generator: &dyn Forward,
+    variant: Variant,
+    sources: &[&Image],
+    opts: &RenderOptions,
+) -> Result<Image> {
+    let (cin, cout) = generator.channels();
+    let (want_in, want_out) = variant.channels();
+    let given: usize = sources.iter().map(|s| s.channels()).sum();
+    for (what, expected, got) in [
+        ("generator input", want_in, cin),
+        ("generator output", want_out, cout),
+        ("network input planes", cin, given),
+    ] {
+        if expected != got {
+            return Err(ModelError::Channels {
+                what,
+                expected,
+                got,
+            });
+        }
+    }
+    let (w, h) = sources[0].size();
+    let (hp, wp) = (padded(h), padded(w));
+    if hp * wp <= opts.max_tile_pixels {
+        let region = Rect {
+            y0: 0,
+            x0: 0,
+            h: hp,
+            w: wp,
+        };
+        let x = input_tensor(sources, region);
+        let y = generator.forward(x)?.data; // [cout, hp, wp]
+        crop_to_image(&y, cout, hp, wp, h, w)
+    } else {
+        render_tiled(generator, sources, (hp, wp), (h, w), opts)
+    }
+}
+
+fn padded(n: usize) -> usize {
+    n.div_ceil(SIZE_MULTIPLE) * SIZE_MULTIPLE
 }
 
 /// Index into `[0, n)` of position `i` of the image mirrored about its first and last
@@ -329,10 +354,11 @@ struct Rect {
     w: usize,
 }
 
-/// The network input over `region` of the padded image: clean, depth and light field
-/// stacked, `[7, region.h, region.w]`.
-fn input_tensor(sources: &[&Image; 3], region: Rect) -> Planar {
-    let mut data = Vec::with_capacity(INPUT_CHANNELS * region.h * region.w);
+/// The network input over `region` of the padded image: the sources' planes stacked,
+/// `[channels, region.h, region.w]`.
+fn input_tensor(sources: &[&Image], region: Rect) -> Planar {
+    let channels: usize = sources.iter().map(|s| s.channels()).sum();
+    let mut data = Vec::with_capacity(channels * region.h * region.w);
     for im in sources {
         let (w, h) = im.size();
         let cols: Vec<usize> = (region.x0..region.x0 + region.w)
@@ -347,22 +373,29 @@ fn input_tensor(sources: &[&Image; 3], region: Rect) -> Planar {
         }
     }
     Planar {
-        channels: INPUT_CHANNELS,
+        channels,
         height: region.h,
         width: region.w,
         data,
     }
 }
 
-/// The top-left `h x w` of a `[3, hp, wp]` output as an image.
-fn crop_to_image(y: &[f32], hp: usize, wp: usize, h: usize, w: usize) -> Result<Image> {
-    let mut data = Vec::with_capacity(OUTPUT_CHANNELS * h * w);
-    for c in 0..OUTPUT_CHANNELS {
+/// The top-left `h x w` of a `[channels, hp, wp]` output as an image.
+fn crop_to_image(
+    y: &[f32],
+    channels: usize,
+    hp: usize,
+    wp: usize,
+    h: usize,
+    w: usize,
+) -> Result<Image> {
+    let mut data = Vec::with_capacity(channels * h * w);
+    for c in 0..channels {
         for row in 0..h {
             data.extend_from_slice(&y[(c * hp + row) * wp..][..w]);
         }
     }
-    Ok(Image::from_planar(w, h, OUTPUT_CHANNELS, data)?)
+    Ok(Image::from_planar(w, h, channels, data)?)
 }
 
 /// Core boundaries along one axis of length `len` (a multiple of 16): `n + 1` multiples of 16
@@ -422,7 +455,7 @@ fn axis_weights(
 
 fn render_tiled(
     generator: &dyn Forward,
-    sources: &[&Image; 3],
+    sources: &[&Image],
     (hp, wp): (usize, usize),
     (h, w): (usize, usize),
     opts: &RenderOptions,
@@ -472,7 +505,8 @@ fn render_tiled(
 
     // Final pass: render each tile with the global means and blend.
     let guard = RECEPTIVE_RADIUS.min(opts.overlap.saturating_sub(MIN_RAMP) / 2);
-    let mut acc = vec![0.0f32; OUTPUT_CHANNELS * h * w];
+    let cout = generator.channels().1;
+    let mut acc = vec![0.0f32; cout * h * w];
     let mut weight = vec![0.0f32; h * w];
     for (i, j) in cores() {
         let (y0, y1) = tile_extent(by[i], by[i + 1], half, hp);
@@ -500,19 +534,19 @@ fn render_tiled(
                 }
                 let col = x0 + tx;
                 weight[row * w + col] += wt;
-                for c in 0..OUTPUT_CHANNELS {
+                for c in 0..cout {
                     acc[(c * h + row) * w + col] += wt * y[(c * region.h + ty) * region.w + tx];
                 }
             }
         }
     }
-    for c in 0..OUTPUT_CHANNELS {
+    for c in 0..cout {
         for (a, &wt) in acc[c * h * w..(c + 1) * h * w].iter_mut().zip(&weight) {
             // Every pixel lies in the core of some tile, where that tile's weight is >= 1/16.
             *a /= wt;
         }
     }
-    Ok(Image::from_planar(w, h, OUTPUT_CHANNELS, acc)?)
+    Ok(Image::from_planar(w, h, cout, acc)?)
 }
 
 #[cfg(test)]

@@ -13,6 +13,7 @@ use crate::config::{ATTENTION_REDUCTION, GeneratorConfig, LEVELS};
 use crate::error::{ModelError, Result};
 use crate::generator::Generator;
 use crate::infer::{BurnForward, RenderOptions, render_with};
+use crate::style::ReferenceStyle;
 use crate::weights::{
     DOWN_PREFIXES, LoadedWeights, NamedTensor, TensorMap, UNUSED_NORM_MARKER, UP_PREFIXES,
     WeightsInfo, generator_from_tensors, generator_to_tensors, read_weights,
@@ -161,25 +162,33 @@ impl Network {
         }
     }
 
-    /// Renders `clean` (3 channels) in the style of `light_field` (3 channels) using `depth`
-    /// (1 channel); all the same size. The output has that size too, values in [0, 1].
+    /// Renders `clean` (3 channels) in the style of a reference (its light field resized to
+    /// the clean image, and for the anchored variant its water), using `depth` (1 channel, the
+    /// clean image's size). The output has that size too, values in [0, 1].
     pub fn render(
         &self,
         clean: &Image,
         depth: &Image,
-        light_field: &Image,
+        style: &ReferenceStyle,
         opts: &RenderOptions,
     ) -> Result<Image> {
+        let variant = self.config.variant;
         match &self.imp {
-            Imp::Engine(engine) => render_with(engine.as_ref(), clean, depth, light_field, opts),
+            Imp::Engine(engine) => render_with(engine.as_ref(), variant, clean, depth, style, opts),
             Imp::Burn { generator, device } => render_with(
                 &BurnForward { generator, device },
+                variant,
                 clean,
                 depth,
-                light_field,
+                style,
                 opts,
             ),
         }
+    }
+
+    /// The style of the underwater image `reference` for this network ([`ReferenceStyle::new`]).
+    pub fn style(&self, reference: &Image) -> Result<ReferenceStyle> {
+        ReferenceStyle::new(reference, &self.config)
     }
 }
 

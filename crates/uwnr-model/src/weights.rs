@@ -603,6 +603,7 @@ fn infer_config(tensors: &TensorMap) -> Result<GeneratorConfig> {
         out_channels,
         base_width,
         light_field: LightFieldMap::Paper,
+        variant: crate::style::Variant::Paper,
     };
     config.validate()?;
     Ok(config)

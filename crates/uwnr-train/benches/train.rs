@@ -34,6 +34,8 @@ fn batch(size: usize, crop: usize, seed: u64) -> Batch {
         crop,
         input: (0..size * 7 * n).map(|_| rng.random::<f32>()).collect(),
         target: (0..size * 3 * n).map(|_| rng.random::<f32>()).collect(),
+        depth: Vec::new(),
+        water: vec![0.0; size * 6],
     }
 }
 
@@ -93,6 +95,7 @@ fn prepare(c: &mut Criterion) {
                 ..AugmentConfig::default()
             },
             light_field: uwnr_core::lightfield::LightFieldMap::Paper,
+            variant: uwnr_model::Variant::Paper,
         };
         group.throughput(Throughput::Elements(b as u64));
         group.bench_function(format!("{b}x{s}"), |bencher| {

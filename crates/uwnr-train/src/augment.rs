@@ -14,13 +14,17 @@ use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use uwnr_core::Image;
+use uwnr_model::Variant;
+use uwnr_model::style::{anchor, estimate_water};
 
 use crate::config::{AugmentConfig, ColorCast};
 use crate::data::PairData;
 use crate::error::{Result, TrainError};
 
-/// Channels of the network input: clean RGB, depth, light field.
+/// Channels of the paper variant's network input: clean RGB, depth, light field.
 pub const INPUT_CHANNELS: usize = 7;
+/// Values per sample of the water the anchored variant's output stage uses: veil RGB, beta RGB.
+pub const WATER_VALUES: usize = 6;
 /// Channels of the target.
 pub const TARGET_CHANNELS: usize = 3;
 /// Stream tag of the per-epoch data order.
@@ -125,22 +129,29 @@ fn uniform(rng: &mut ChaCha8Rng, lo: f32, hi: f32) -> f32 {
     }
 }
 
-/// One training sample: the network input `[7, crop, crop]` and the target `[3, crop, crop]`,
-/// planar.
+/// One training sample: the network input and the target `[3, crop, crop]`, planar.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Sample {
-    /// Clean RGB, depth, light field.
+    /// The paper's variant: clean RGB, depth, light field `[7, crop, crop]`; the anchored
+    /// variant: clean RGB, light field, anchor `[9, crop, crop]`.
     pub input: Vec<f32>,
     /// The (possibly colour-cast) underwater crop.
     pub target: Vec<f32>,
+    /// The depth crop `[1, crop, crop]` (the anchored variant's output stage; empty for the
+    /// paper's, whose input holds it).
+    pub depth: Vec<f32>,
+    /// The target's water: veil RGB then beta RGB (anchored variant; zeros for the paper's).
+    pub water: [f32; WATER_VALUES],
 }
 
 /// Cuts, flips, rotates and casts the sample of `plan` from `pair`, then computes the light
-/// field of the underwater crop with `light_field` (the released procedure at the crop's size).
+/// field of the underwater crop with `light_field` (the released procedure at the crop's size),
+/// and for the anchored variant the crop's water and the clean crop's anchor.
 pub fn make_sample(
     pair: &PairData,
     plan: &SamplePlan,
     crop: usize,
+    variant: Variant,
     light_field: impl Fn(&Image) -> Result<Image>,
 ) -> Result<Sample> {
     if pair.width < crop
@@ -192,14 +203,42 @@ pub fn make_sample(
             ),
         });
     }
-    let mut input = Vec::with_capacity(INPUT_CHANNELS * n);
-    input.extend_from_slice(&clean);
-    input.extend_from_slice(&depth);
-    input.extend_from_slice(lf.data());
-    Ok(Sample {
-        input,
-        target: under_img.into_data(),
-    })
+    let (cin, _) = variant.channels();
+    let mut input = Vec::with_capacity(cin * n);
+    match variant {
+        Variant::Paper => {
+            input.extend_from_slice(&clean);
+            input.extend_from_slice(&depth);
+            input.extend_from_slice(lf.data());
+            Ok(Sample {
+                input,
+                target: under_img.into_data(),
+                depth: Vec::new(),
+                water: [0.0; WATER_VALUES],
+            })
+        }
+        Variant::Anchored => {
+            let bad = |e: uwnr_model::ModelError| TrainError::BadImage {
+                path: pair.name.clone().into(),
+                reason: e.to_string(),
+            };
+            let water = estimate_water(&under_img).map_err(bad)?;
+            let clean_img = Image::from_planar(crop, crop, 3, clean)?;
+            let a = anchor(&clean_img, &water).map_err(bad)?;
+            input.extend_from_slice(clean_img.data());
+            input.extend_from_slice(lf.data());
+            input.extend_from_slice(a.data());
+            let mut w = [0.0; WATER_VALUES];
+            w[..3].copy_from_slice(&water.veil);
+            w[3..].copy_from_slice(&water.beta);
+            Ok(Sample {
+                input,
+                target: under_img.into_data(),
+                depth,
+                water: w,
+            })
+        }
+    }
 }
 
 /// Where output pixel `(x, y)` of the augmented `crop x crop` sample comes from in the

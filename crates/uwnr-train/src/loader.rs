@@ -15,8 +15,10 @@ use std::thread::JoinHandle;
 use rayon::prelude::*;
 use uwnr_core::lightfield::LightFieldMap;
 
+use uwnr_model::Variant;
+
 use crate::augment::{
-    INPUT_CHANNELS, Sample, TARGET_CHANNELS, epoch_order, make_sample, plan_sample,
+    Sample, TARGET_CHANNELS, WATER_VALUES, epoch_order, make_sample, plan_sample,
 };
 use crate::config::AugmentConfig;
 use crate::data::PairData;
@@ -33,10 +35,15 @@ pub struct Batch {
     pub size: usize,
     /// Crop side.
     pub crop: usize,
-    /// `[size, 7, crop, crop]`, row-major.
+    /// `[size, channels, crop, crop]`, row-major (7 channels for the paper's variant, 9 for
+    /// the anchored one).
     pub input: Vec<f32>,
     /// `[size, 3, crop, crop]`, row-major.
     pub target: Vec<f32>,
+    /// `[size, 1, crop, crop]` (anchored variant; empty otherwise).
+    pub depth: Vec<f32>,
+    /// `[size, 6]`: veil RGB, beta RGB per sample (anchored variant; zeros otherwise).
+    pub water: Vec<f32>,
 }
 
 /// What the producer needs to build batches.
@@ -54,6 +61,8 @@ pub struct BatchSpec {
     pub augment: AugmentConfig,
     /// How the light field of an underwater crop is normalised (computed at the crop's size).
     pub light_field: LightFieldMap,
+    /// What the network's planes mean.
+    pub variant: Variant,
 }
 
 impl BatchSpec {
@@ -93,18 +102,22 @@ impl BatchSpec {
                     self.crop,
                     &self.augment,
                 );
-                make_sample(pair, &plan, self.crop, |im| {
+                make_sample(pair, &plan, self.crop, self.variant, |im| {
                     Ok(uwnr_core::lightfield::light_field_raw_with(im, map)?)
                 })
             })
             .collect();
         let n = self.crop * self.crop;
-        let mut input = Vec::with_capacity(self.batch_size * INPUT_CHANNELS * n);
+        let mut input = Vec::with_capacity(self.batch_size * self.variant.channels().0 * n);
         let mut target = Vec::with_capacity(self.batch_size * TARGET_CHANNELS * n);
+        let mut depth = Vec::new();
+        let mut water = Vec::with_capacity(self.batch_size * WATER_VALUES);
         for s in samples {
             let s = s?;
             input.extend_from_slice(&s.input);
             target.extend_from_slice(&s.target);
+            depth.extend_from_slice(&s.depth);
+            water.extend_from_slice(&s.water);
         }
         Ok(Batch {
             epoch,
@@ -113,6 +126,8 @@ impl BatchSpec {
             crop: self.crop,
             input,
             target,
+            depth,
+            water,
         })
     }
 }
@@ -243,6 +258,7 @@ mod tests {
             crop: 32,
             augment: AugmentConfig::default(),
             light_field: LightFieldMap::default(),
+            variant: Variant::Paper,
         };
         let mut loader = Loader::start(spec, 0, 0, 1, 1);
         let err = match loader.next_batch() {
@@ -272,6 +288,7 @@ mod tests {
             crop: 32,
             augment: AugmentConfig::default(),
             light_field: LightFieldMap::default(),
+            variant: Variant::Paper,
         };
         let mut loader = Loader::start(spec, 0, 0, 2, 2);
         let got: Vec<(usize, usize)> = std::iter::from_fn(|| loader.next_batch())

@@ -28,7 +28,7 @@ pub const LF_RELEASED_SCALE: f64 = 0.3;
 pub const LF_POOL: usize = 3;
 /// Truncation of the Gaussian kernels, in sigmas (OpenCV's rule for 8-bit images:
 /// `ksize = round(sigma * 3 * 2 + 1) | 1`).
-pub const LF_TRUNCATE_SIGMAS: f64 = 3.0;
+pub const LF_TRUNCATE_SIGMAS: f64 = uwnr_model::style::BLUR_TRUNCATE_SIGMAS;
 /// Floor of the blurred values before the log: one 8-bit code. The output of the tanh can be
 /// negative; the map's log needs positive values.
 pub const LF_LOG_FLOOR: f64 = 1.0 / 255.0;
@@ -71,67 +71,7 @@ pub fn dark_channel_loss(out: Tensor<4>, target: Tensor<4>, window: usize) -> Te
     l1(dark_channel(out, window), dark_channel(target, window))
 }
 
-/// A normalised 1-D Gaussian of `2 * radius + 1` taps.
-#[must_use]
-pub fn gaussian_kernel(sigma: f64, radius: usize) -> Vec<f64> {
-    let r = radius as i64;
-    let k: Vec<f64> = (-r..=r)
-        .map(|i| (-((i * i) as f64) / (2.0 * sigma * sigma)).exp())
-        .collect();
-    let total: f64 = k.iter().sum();
-    k.into_iter().map(|v| v / total).collect()
-}
-
-/// For a signal of length `n`, the kernel mass that falls inside it at each position: the
-/// normaliser of a zero-padded convolution.
-fn inside_mass(kernel: &[f64], n: usize) -> Vec<f64> {
-    let r = (kernel.len() / 2) as i64;
-    (0..n as i64)
-        .map(|i| {
-            (-r..=r)
-                .filter(|k| (0..n as i64).contains(&(i + k)))
-                .map(|k| kernel[(k + r) as usize])
-                .sum()
-        })
-        .collect()
-}
-
-/// Gaussian blur of every channel, separable, with the kernel truncated at
-/// [`LF_TRUNCATE_SIGMAS`] sigmas (and at the image size, beyond which it only sees padding)
-/// and renormalised over the part inside the image at the borders (normalised convolution):
-/// a constant image stays constant.
-///
-/// # Shapes
-/// - `x`: `[b, c, h, w]`; output: `[b, c, h, w]`
-pub fn gaussian_blur(x: Tensor<4>, sigma: f64) -> Tensor<4> {
-    let [_, c, h, w] = x.dims();
-    let device = x.device();
-    let full = (LF_TRUNCATE_SIGMAS * sigma).ceil() as usize;
-    let (rx, ry) = (full.min(w.saturating_sub(1)), full.min(h.saturating_sub(1)));
-    let (kx, ky) = (gaussian_kernel(sigma, rx), gaussian_kernel(sigma, ry));
-    let weight = |k: &[f64], shape: [usize; 4]| {
-        let data: Vec<f32> = (0..c).flat_map(|_| k.iter().map(|&v| v as f32)).collect();
-        Tensor::<4>::from_data(TensorData::new(data, shape), &device)
-    };
-    let horiz = conv2d(
-        x,
-        weight(&kx, [c, 1, 1, kx.len()]),
-        None,
-        ConvOptions::new([1, 1], [0, rx], [1, 1], c),
-    ); // [b, c, h, w]
-    let blurred = conv2d(
-        horiz,
-        weight(&ky, [c, 1, ky.len(), 1]),
-        None,
-        ConvOptions::new([1, 1], [ry, 0], [1, 1], c),
-    ); // [b, c, h, w]
-    let (mx, my) = (inside_mass(&kx, w), inside_mass(&ky, h));
-    let norm: Vec<f32> = my
-        .iter()
-        .flat_map(|&a| mx.iter().map(move |&b| (a * b) as f32))
-        .collect();
-    blurred / Tensor::<4>::from_data(TensorData::new(norm, [1, 1, h, w]), &device)
-}
+pub use uwnr_model::style::{gaussian_blur, gaussian_kernel};
 
 /// The paper's light-field map of a batch (Eq. 2-3 and the loss's `LF`), with the released
 /// map's geometry: the image is shrunk by [`LF_POOL`] (average pooling), blurred with

@@ -22,11 +22,11 @@ use std::time::Instant;
 use burn::module::Module;
 use burn::optim::{AdamWConfig, GradientsParams, ModuleOptimizer};
 use burn::tensor::{Device, Tensor, TensorData};
-use uwnr_core::Image;
 use uwnr_core::io::DecodeLimits;
-use uwnr_model::{Backend, Generator, Network, RenderOptions};
+use uwnr_model::style::{estimate_water, finish_tensor};
+use uwnr_model::{Backend, Generator, Network, ReferenceStyle, RenderOptions, Variant};
 
-use crate::augment::{INPUT_CHANNELS, TARGET_CHANNELS};
+use crate::augment::{TARGET_CHANNELS, WATER_VALUES};
 use crate::checkpoint::{
     BEST, CHECKPOINTS_DIR, LAST, RunState, check_run_folder, find_checkpoint, load_checkpoint,
     save_checkpoint,
@@ -213,17 +213,22 @@ pub fn train(
     }
     write_file(&run.join(DATA_REPORT_FILE), &report)?;
     let total_steps = cfg.epochs * steps_per_epoch;
-    let val_lf: Vec<Image> = val
+    let val_lf: Vec<ReferenceStyle> = val
         .iter()
-        .map(|v| {
-            lightfield::light_field_for_with(
+        .map(|v| -> Result<ReferenceStyle> {
+            let light_field = lightfield::light_field_for_with(
                 &v.underwater,
                 v.clean.width(),
                 v.clean.height(),
                 cfg.model.light_field,
-            )
+            )?;
+            let water = match cfg.model.variant {
+                Variant::Paper => None,
+                Variant::Anchored => Some(estimate_water(&v.underwater)?),
+            };
+            Ok(ReferenceStyle { light_field, water })
         })
-        .collect::<uwnr_core::Result<_>>()?;
+        .collect::<Result<_>>()?;
 
     let device = opts.device.clone().autodiff();
     let adamw = AdamWConfig::new()
@@ -276,6 +281,7 @@ pub fn train(
         crop: cfg.crop,
         augment: cfg.augment,
         light_field: cfg.model.light_field,
+        variant: cfg.model.variant,
     };
     let mut loader = Loader::start(
         spec,
@@ -417,7 +423,7 @@ struct Ctx<'a> {
     cfg: &'a TrainConfig,
     run: &'a Path,
     val: &'a [ValPair],
-    val_lf: &'a [Image],
+    val_lf: &'a [ReferenceStyle],
     metrics: &'a CsvLog,
     val_log: &'a CsvLog,
     refs: &'a [f64],
@@ -559,15 +565,28 @@ pub fn train_step(
     device: &Device,
 ) -> Result<(Generator, LossValues)> {
     let (b, c) = (batch.size, batch.crop);
-    let x = Tensor::<4>::from_data(
-        TensorData::new(batch.input.clone(), [b, INPUT_CHANNELS, c, c]),
-        device,
-    );
+    let cin = batch.input.len() / (b * c * c).max(1);
+    let x = Tensor::<4>::from_data(TensorData::new(batch.input.clone(), [b, cin, c, c]), device);
     let y = Tensor::<4>::from_data(
         TensorData::new(batch.target.clone(), [b, TARGET_CHANNELS, c, c]),
         device,
     );
-    let out = model.forward(x); // [b, 3, c, c]
+    let out = if batch.depth.is_empty() {
+        model.forward(x) // [b, 3, c, c]
+    } else {
+        // The anchored variant: input planes 6..9 are the anchor.
+        let anchor = x.clone().slice([0..b, 6..9, 0..c, 0..c]);
+        let raw = model.forward(x); // [b, 6, c, c]
+        let depth =
+            Tensor::<4>::from_data(TensorData::new(batch.depth.clone(), [b, 1, c, c]), device);
+        let water = Tensor::<2>::from_data(
+            TensorData::new(batch.water.clone(), [b, WATER_VALUES]),
+            device,
+        );
+        let veil = water.clone().slice([0..b, 0..3]).reshape([b, 3, 1, 1]);
+        let beta = water.slice([0..b, 3..6]).reshape([b, 3, 1, 1]);
+        finish_tensor(raw, anchor, depth, veil, beta) // [b, 3, c, c]
+    };
     let loss = criterion.forward(out, y);
     let grads = loss.total.backward();
     let grads = GradientsParams::from_grads(grads, &model);

@@ -9,9 +9,7 @@ use anyhow::{Context, Result, anyhow, bail};
 use uwnr_baselines::{Method, RenderInput};
 use uwnr_core::Image;
 use uwnr_core::io::{DecodeLimits, is_image_path, load_rgb, save_rgb};
-use uwnr_core::lightfield::{LightFieldMap, light_field_with};
-use uwnr_core::resize::resize_bilinear;
-use uwnr_model::{Network, RenderOptions};
+use uwnr_model::{Network, ReferenceStyle, RenderOptions};
 
 use crate::cli::RenderArgs;
 use crate::inputs::{Job, expand_images, plan_jobs};
@@ -22,8 +20,6 @@ enum Renderer {
     Network {
         network: Box<Network>,
         opts: RenderOptions,
-        /// The light-field map the weights were trained with (from their config).
-        map: LightFieldMap,
     },
     Baseline {
         method: Method,
@@ -33,8 +29,8 @@ enum Renderer {
 
 /// The per-reference input a renderer needs, computed once per reference.
 enum RefInput {
-    /// The 256x256 light field map (UWNR).
-    Field(Image),
+    /// What the network takes of the reference (its light field, and its water).
+    Style(ReferenceStyle),
     /// The decoded reference (baselines).
     Image(Image),
 }
@@ -91,7 +87,6 @@ pub fn run(a: &RenderArgs) -> Result<ExitCode> {
             let (network, _info, _source) =
                 super::load_network(a.model.weights.as_deref(), &backend)?;
             Renderer::Network {
-                map: network.config().light_field,
                 network: Box::new(network),
                 opts: RenderOptions {
                     max_tile_pixels: a.model.max_whole_pixels,
@@ -154,9 +149,10 @@ fn reference_input(path: &Path, renderer: &Renderer, limits: &DecodeLimits) -> R
     let reference =
         load_rgb(path, limits).with_context(|| format!("reading reference {}", path.display()))?;
     Ok(match renderer {
-        Renderer::Network { map, .. } => RefInput::Field(
-            light_field_with(&reference, *map)
-                .with_context(|| format!("light field of {}", path.display()))?,
+        Renderer::Network { network, .. } => RefInput::Style(
+            network
+                .style(&reference)
+                .with_context(|| format!("style of {}", path.display()))?,
         ),
         Renderer::Baseline { .. } => RefInput::Image(reference),
     })
@@ -179,12 +175,9 @@ fn render_one(
         batch.note(&format!("note: {}: {n}", clean_path.display()));
     }
     let out = match (renderer, reference) {
-        (Renderer::Network { network, opts, .. }, Some(RefInput::Field(field))) => {
-            let lf = resize_bilinear(field, clean.width(), clean.height())?;
-            network
-                .render(&clean, &depth.map, &lf, opts)
-                .context("rendering")?
-        }
+        (Renderer::Network { network, opts }, Some(RefInput::Style(style))) => network
+            .render(&clean, &depth.map, style, opts)
+            .context("rendering")?,
         (Renderer::Baseline { method, seed }, reference) => {
             let reference = match reference {
                 Some(RefInput::Image(img)) => Some(img),

@@ -58,8 +58,22 @@ fn engine_matches_burn_on_the_parity_fixture_and_odd_sizes() {
     let opts = RenderOptions::default();
     for (w, h) in [(48, 32), (37, 23), (16, 16), (70, 41)] {
         let (clean, depth, lf) = inputs(w, h, w as f32);
-        let a = engine.render(&clean, &depth, &lf, &opts).unwrap();
-        let b = burn.render(&clean, &depth, &lf, &opts).unwrap();
+        let a = engine
+            .render(
+                &clean,
+                &depth,
+                &uwnr_model::ReferenceStyle::from_light_field(lf.clone()),
+                &opts,
+            )
+            .unwrap();
+        let b = burn
+            .render(
+                &clean,
+                &depth,
+                &uwnr_model::ReferenceStyle::from_light_field(lf.clone()),
+                &opts,
+            )
+            .unwrap();
         let d = max_abs(&a, &b);
         println!("{w}x{h}: engine vs flex max abs {d:.2e}");
         assert!(d < ENGINE_TOL, "{w}x{h}: {d}");
@@ -84,8 +98,22 @@ fn engine_matches_burn_with_random_weights_and_tiles() {
             overlap: 32,
         },
     ] {
-        let a = engine.render(&clean, &depth, &lf, &opts).unwrap();
-        let b = burn.render(&clean, &depth, &lf, &opts).unwrap();
+        let a = engine
+            .render(
+                &clean,
+                &depth,
+                &uwnr_model::ReferenceStyle::from_light_field(lf.clone()),
+                &opts,
+            )
+            .unwrap();
+        let b = burn
+            .render(
+                &clean,
+                &depth,
+                &uwnr_model::ReferenceStyle::from_light_field(lf.clone()),
+                &opts,
+            )
+            .unwrap();
         let d = max_abs(&a, &b);
         println!("{opts:?}: engine vs flex max abs {d:.2e}");
         assert!(d < ENGINE_TOL, "{opts:?}: {d}");

@@ -1,0 +1,369 @@
+//! What a network takes from its reference, and the `anchored` variant's physical output stage.
+//!
+//! The paper's generator (variant [`Variant::Paper`]) reads the reference only through its
+//! light-field map and outputs the underwater image directly. Trained here, that network learnt
+//! a tint: it scored below a Reinhard colour transfer on unseen pairs and ignored depth
+//! (`MODEL_CARD.md`; the calibration runs in the training notes show why). The `anchored`
+//! variant keeps the same network body but changes what goes in and what comes out:
+//!
+//! ```text
+//! A      = Reinhard transfer of the clean image to the reference's lαβ statistics   (anchor)
+//! x      = concat[clean, light field, A]                                 9 input planes
+//! g, o   = G(x)                                   6 output planes, tanh, zero at initialisation
+//! g', o' = Gaussian blur of g and o, sigma SMOOTH_SIGMA px    (a smooth local correction)
+//! N      = A (1 + g') + o'                       the reference's look at REFERENCE_DEPTH
+//! out    = B + (N - B) · min(exp(-beta (d - REFERENCE_DEPTH)), MAX_GAIN)     per channel
+//! ```
+//!
+//! - The network starts exactly at the colour transfer (the last convolution is zero), and can
+//!   only move it by a smooth per-pixel gain and offset: it corrects where the reference's water
+//!   is brighter, darker, hazier or more tinted than a global transfer puts it (the light field
+//!   shows where), but it cannot paint texture, so what it learns on one dataset's pairs cannot
+//!   turn into artefacts on another's.
+//! - Depth acts outside the network, through the image-formation model
+//!   `I = J t + B (1 - t)`, `t = exp(-beta d)`: the anchored render `N` stands for the scene as
+//!   the reference's water shows it at the reference's typical distance (`REFERENCE_DEPTH` of
+//!   the normalised depth map), so `J = B + (N - B) / t(d_ref)` and
+//!   `I(d) = B + (N - B) t(d) / t(d_ref)`. Farther than `d_ref` the image moves towards the veiling
+//!   light `B` and loses contrast; nearer it regains contrast, up to `MAX_GAIN`. Because the
+//!   statistics anchor cannot cancel it and the network never sees depth, the response is
+//!   monotonic by construction, whatever the weights (the training notes found that a network
+//!   fed depth learns to ignore it, since in self-reconstruction the light field already shows
+//!   the target's haze).
+//! - The water's parameters come from the reference ([`estimate_water`]): `B` by the quadtree
+//!   search of Hou et al. (the UISA baseline's), `beta` per channel from how much contrast the
+//!   reference keeps: `t_c(d_ref) = clamp(std_c / AIR_CONTRAST, MIN_TRANSMISSION, 1)`, where
+//!   `AIR_CONTRAST` is the typical per-channel spread of an in-air photo. A channel the water
+//!   flattens (red in blue water) attenuates fast; a hazy reference gives a strong response, a
+//!   clear one a weak one. This is a one-image heuristic, not a fit; it is what makes the depth
+//!   response follow the reference.
+
+use burn::tensor::module::conv2d;
+use burn::tensor::ops::ConvOptions;
+use burn::tensor::{Tensor, TensorData};
+use serde::{Deserialize, Serialize};
+use uwnr_baselines::reinhard::{ChannelStats, reference_stats, transfer_to_stats};
+use uwnr_baselines::{BackgroundPick, ColourSpace, quadtree_background};
+use uwnr_core::Image;
+use uwnr_core::lightfield::light_field_with;
+
+use crate::config::GeneratorConfig;
+use crate::error::{ModelError, Result};
+
+/// What the network's input and output planes mean.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Variant {
+    /// The released network: clean RGB, depth, light field in; the underwater RGB image out.
+    #[default]
+    Paper,
+    /// Clean RGB, light field and the colour-transfer anchor in; a smooth gain and offset on
+    /// the anchor out, followed by the depth-driven image-formation stage (module doc).
+    Anchored,
+}
+
+impl Variant {
+    /// Input and output planes of the network body.
+    #[must_use]
+    pub fn channels(self) -> (usize, usize) {
+        match self {
+            Self::Paper => (7, 3),
+            Self::Anchored => (ANCHORED_IN_CHANNELS, ANCHORED_OUT_CHANNELS),
+        }
+    }
+}
+
+/// Input planes of the anchored network: clean RGB, light field, anchor.
+pub const ANCHORED_IN_CHANNELS: usize = 9;
+/// Output planes of the anchored network: gain (3) and offset (3).
+pub const ANCHORED_OUT_CHANNELS: usize = 6;
+/// The colour space of the anchor's statistics transfer.
+pub const ANCHOR_SPACE: ColourSpace = ColourSpace::LAlphaBeta;
+/// Blur of the gain and offset planes, in pixels.
+pub const SMOOTH_SIGMA: f64 = 4.0;
+/// Gaussian kernels are truncated at this many sigmas (and at the image size).
+pub const BLUR_TRUNCATE_SIGMAS: f64 = 3.0;
+/// The normalised depth the anchored render stands for.
+pub const REFERENCE_DEPTH: f32 = 0.5;
+/// Typical per-channel standard deviation of an in-air photo (RGB in [0, 1]).
+pub const AIR_CONTRAST: f64 = 0.25;
+/// Floor of the transmission read off a reference's contrast.
+pub const MIN_TRANSMISSION: f64 = 0.15;
+/// Largest contrast gain towards depth 0.
+pub const MAX_GAIN: f32 = 2.0;
+/// Stopping size of the veiling-light quadtree search (fraction of the pixels).
+pub const VEIL_MIN_FRACTION: f64 = 0.01;
+
+/// The water of a reference, as the anchored variant uses it.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Water {
+    /// The reference's lαβ statistics (the anchor's target).
+    pub stats: ChannelStats,
+    /// Veiling light `B`, RGB in [0, 1].
+    pub veil: [f32; 3],
+    /// Attenuation per unit of normalised depth, RGB.
+    pub beta: [f32; 3],
+}
+
+/// Estimates the water of the underwater image `reference` (module doc).
+pub fn estimate_water(reference: &Image) -> Result<Water> {
+    let baseline = |e: uwnr_baselines::BaselineError| ModelError::InvalidOptions(e.to_string());
+    let stats = reference_stats(reference, ANCHOR_SPACE).map_err(baseline)?;
+    let veil = quadtree_background(reference, VEIL_MIN_FRACTION, BackgroundPick::Mean)
+        .map_err(baseline)?;
+    let beta = std::array::from_fn(|c| {
+        let p = reference.plane(c);
+        let n = p.len().max(1) as f64;
+        let mean = p.iter().map(|&v| f64::from(v)).sum::<f64>() / n;
+        let var = p
+            .iter()
+            .map(|&v| (f64::from(v) - mean).powi(2))
+            .sum::<f64>()
+            / n;
+        let t = (var.sqrt() / AIR_CONTRAST).clamp(MIN_TRANSMISSION, 1.0);
+        (-t.ln() / f64::from(REFERENCE_DEPTH)) as f32
+    });
+    Ok(Water {
+        stats,
+        veil: veil.map(|v| v as f32),
+        beta,
+    })
+}
+
+/// What rendering needs of one reference, computed once and reused for any clean image.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ReferenceStyle {
+    /// The light-field map (any size: it is resized to each clean image).
+    pub light_field: Image,
+    /// The water, for the anchored variant.
+    pub water: Option<Water>,
+}
+
+impl ReferenceStyle {
+    /// The style of `reference` for a network with `config`: its light-field map (256x256, the
+    /// map the config names) and, for the anchored variant, its water.
+    pub fn new(reference: &Image, config: &GeneratorConfig) -> Result<Self> {
+        let light_field = light_field_with(reference, config.light_field)?;
+        let water = match config.variant {
+            Variant::Paper => None,
+            Variant::Anchored => Some(estimate_water(reference)?),
+        };
+        Ok(Self { light_field, water })
+    }
+
+    /// A style given by a light-field map alone (enough for the paper's variant).
+    #[must_use]
+    pub fn from_light_field(light_field: Image) -> Self {
+        Self {
+            light_field,
+            water: None,
+        }
+    }
+}
+
+/// The anchor of `clean` for `water`: the Reinhard lαβ transfer to the reference's statistics.
+pub fn anchor(clean: &Image, water: &Water) -> Result<Image> {
+    transfer_to_stats(clean, water.stats, ANCHOR_SPACE)
+        .map_err(|e| ModelError::InvalidOptions(e.to_string()))
+}
+
+/// Normalised Gaussian kernel `exp(-x^2 / (2 sigma^2))`, `x = -radius..=radius`.
+#[must_use]
+pub fn gaussian_kernel(sigma: f64, radius: usize) -> Vec<f64> {
+    let r = radius as i64;
+    let k: Vec<f64> = (-r..=r)
+        .map(|i| (-((i * i) as f64) / (2.0 * sigma * sigma)).exp())
+        .collect();
+    let total: f64 = k.iter().sum();
+    k.into_iter().map(|v| v / total).collect()
+}
+
+/// For a signal of length `n`, the kernel mass that falls inside it at each position: the
+/// normaliser of a zero-padded convolution.
+fn inside_mass(kernel: &[f64], n: usize) -> Vec<f64> {
+    let r = (kernel.len() / 2) as i64;
+    (0..n as i64)
+        .map(|i| {
+            (-r..=r)
+                .filter(|k| (0..n as i64).contains(&(i + k)))
+                .map(|k| kernel[(k + r) as usize])
+                .sum()
+        })
+        .collect()
+}
+
+/// Radius of the blur of `sigma` along an axis of `n` pixels.
+fn blur_radius(sigma: f64, n: usize) -> usize {
+    ((BLUR_TRUNCATE_SIGMAS * sigma).ceil() as usize).min(n.saturating_sub(1))
+}
+
+/// Gaussian blur of every channel, separable, with the kernel truncated at
+/// [`BLUR_TRUNCATE_SIGMAS`] sigmas (and at the image size) and renormalised over the part
+/// inside the image at the borders (normalised convolution): a constant image stays constant.
+///
+/// # Shapes
+/// - `x`: `[b, c, h, w]`; output: `[b, c, h, w]`
+pub fn gaussian_blur(x: Tensor<4>, sigma: f64) -> Tensor<4> {
+    let [_, c, h, w] = x.dims();
+    let device = x.device();
+    let (rx, ry) = (blur_radius(sigma, w), blur_radius(sigma, h));
+    let (kx, ky) = (gaussian_kernel(sigma, rx), gaussian_kernel(sigma, ry));
+    let weight = |k: &[f64], shape: [usize; 4]| {
+        let data: Vec<f32> = (0..c).flat_map(|_| k.iter().map(|&v| v as f32)).collect();
+        Tensor::<4>::from_data(TensorData::new(data, shape), &device)
+    };
+    let horiz = conv2d(
+        x,
+        weight(&kx, [c, 1, 1, kx.len()]),
+        None,
+        ConvOptions::new([1, 1], [0, rx], [1, 1], c),
+    ); // [b, c, h, w]
+    let blurred = conv2d(
+        horiz,
+        weight(&ky, [c, 1, ky.len(), 1]),
+        None,
+        ConvOptions::new([1, 1], [ry, 0], [1, 1], c),
+    ); // [b, c, h, w]
+    let (mx, my) = (inside_mass(&kx, w), inside_mass(&ky, h));
+    let norm: Vec<f32> = my
+        .iter()
+        .flat_map(|&a| mx.iter().map(move |&b| (a * b) as f32))
+        .collect();
+    blurred / Tensor::<4>::from_data(TensorData::new(norm, [1, 1, h, w]), &device)
+}
+
+/// [`gaussian_blur`] of one `h x w` plane, in place.
+fn blur_plane(p: &mut [f32], w: usize, h: usize, sigma: f64) {
+    let (rx, ry) = (blur_radius(sigma, w), blur_radius(sigma, h));
+    let (kx, ky) = (gaussian_kernel(sigma, rx), gaussian_kernel(sigma, ry));
+    let (mx, my) = (inside_mass(&kx, w), inside_mass(&ky, h));
+    let mut tmp = vec![0.0f32; w * h];
+    for y in 0..h {
+        let row = &p[y * w..][..w];
+        for x in 0..w {
+            let mut s = 0.0f64;
+            for (k, &kv) in kx.iter().enumerate() {
+                let sx = x as i64 + k as i64 - rx as i64;
+                if (0..w as i64).contains(&sx) {
+                    s += kv * f64::from(row[sx as usize]);
+                }
+            }
+            tmp[y * w + x] = s as f32;
+        }
+    }
+    for y in 0..h {
+        for x in 0..w {
+            let mut s = 0.0f64;
+            for (k, &kv) in ky.iter().enumerate() {
+                let sy = y as i64 + k as i64 - ry as i64;
+                if (0..h as i64).contains(&sy) {
+                    s += kv * f64::from(tmp[sy as usize * w + x]);
+                }
+            }
+            p[y * w + x] = (s / (mx[x] * my[y])) as f32;
+        }
+    }
+}
+
+/// Depth factor `min(exp(-beta (d - REFERENCE_DEPTH)), MAX_GAIN)`.
+fn depth_factor(beta: f32, d: f32) -> f32 {
+    (-beta * (d - REFERENCE_DEPTH)).exp().min(MAX_GAIN)
+}
+
+/// The anchored variant's output stage on one image (module doc): `raw` is the network's
+/// 6-plane output, `anchor` the colour transfer, `depth` the 1-plane depth map, all one size.
+pub fn finish(raw: &Image, anchor: &Image, depth: &Image, water: &Water) -> Result<Image> {
+    let (w, h) = anchor.size();
+    if raw.size() != (w, h) || depth.size() != (w, h) {
+        return Err(ModelError::ImageSize {
+            what: "anchored network output",
+            expected: (w, h),
+            got: raw.size(),
+        });
+    }
+    let mut fields = raw.clone();
+    for c in 0..ANCHORED_OUT_CHANNELS {
+        blur_plane(fields.plane_mut(c), w, h, SMOOTH_SIGMA);
+    }
+    let d = depth.plane(0);
+    let mut out = Image::filled(w, h, 3, 0.0);
+    for c in 0..3 {
+        let (a, g, o) = (anchor.plane(c), fields.plane(c), fields.plane(c + 3));
+        let (veil, beta) = (water.veil[c], water.beta[c]);
+        for (i, v) in out.plane_mut(c).iter_mut().enumerate() {
+            let n = a[i] * (1.0 + g[i]) + o[i];
+            *v = veil + (n - veil) * depth_factor(beta, d[i]);
+        }
+    }
+    out.clamp01();
+    Ok(out)
+}
+
+/// [`finish`] on a batch, differentiable (training).
+///
+/// # Shapes
+/// - `raw`: `[b, 6, h, w]`; `anchor`: `[b, 3, h, w]`; `depth`: `[b, 1, h, w]`;
+///   `veil`, `beta`: `[b, 3, 1, 1]`; output `[b, 3, h, w]`, not clamped (the loss sees the
+///   unclamped values so that gradients flow everywhere)
+pub fn finish_tensor(
+    raw: Tensor<4>,
+    anchor: Tensor<4>,
+    depth: Tensor<4>,
+    veil: Tensor<4>,
+    beta: Tensor<4>,
+) -> Tensor<4> {
+    let [b, _, h, w] = raw.dims();
+    let fields = gaussian_blur(raw, SMOOTH_SIGMA);
+    let g = fields.clone().slice([0..b, 0..3, 0..h, 0..w]);
+    let o = fields.slice([0..b, 3..6, 0..h, 0..w]);
+    let n = anchor * (g + 1.0) + o;
+    let factor = (beta.neg() * (depth - REFERENCE_DEPTH))
+        .exp()
+        .clamp_max(MAX_GAIN); // [b, 3, h, w]
+    (n - veil.clone()) * factor + veil
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_blurred_constant_stays_constant() {
+        let mut p = vec![0.3f32; 7 * 5];
+        blur_plane(&mut p, 7, 5, 4.0);
+        assert!(p.iter().all(|v| (v - 0.3).abs() < 1e-6), "{p:?}");
+    }
+
+    #[test]
+    fn depth_factor_is_one_at_the_reference_depth_and_falls() {
+        assert!((depth_factor(2.0, REFERENCE_DEPTH) - 1.0).abs() < 1e-6);
+        assert!(depth_factor(2.0, 1.0) < depth_factor(2.0, 0.75));
+        assert_eq!(depth_factor(20.0, 0.0), MAX_GAIN);
+        // No attenuation: no response.
+        assert_eq!(depth_factor(0.0, 1.0), 1.0);
+    }
+
+    #[test]
+    fn contrast_sets_the_attenuation() {
+        // A flat red channel attenuates fastest; a full-contrast channel not at all.
+        let (w, h) = (32, 32);
+        let mut data = Vec::new();
+        for c in 0..3 {
+            for i in 0..w * h {
+                let checker = if (i / w + i % w) % 2 == 0 { 1.0 } else { 0.0 };
+                let amp = [0.02, 0.3, 0.6][c];
+                data.push(0.5 - amp / 2.0 + amp * checker);
+            }
+        }
+        let img = Image::from_planar(w, h, 3, data).unwrap();
+        let water = estimate_water(&img).unwrap();
+        let t_min_beta = (-MIN_TRANSMISSION.ln() / f64::from(REFERENCE_DEPTH)) as f32;
+        assert!(
+            (water.beta[0] - t_min_beta).abs() < 1e-5,
+            "{:?}",
+            water.beta
+        );
+        assert!(water.beta[1] > 0.0 && water.beta[1] < water.beta[0]);
+        assert_eq!(water.beta[2], 0.0);
+    }
+}

@@ -1,0 +1,210 @@
+//! The anchored variant: its output stage in burn against the plain one, the engine against
+//! burn with random weights, and the depth response its structure guarantees.
+
+use burn::module::Param;
+use burn::tensor::{Distribution, Tensor, TensorData};
+use uwnr_core::Image;
+use uwnr_model::style::{REFERENCE_DEPTH, anchor, estimate_water, finish, finish_tensor};
+use uwnr_model::{Backend, Device, GeneratorConfig, Network, ReferenceStyle, RenderOptions};
+
+fn plane(w: usize, h: usize, c: usize, scale: f32, seed: f32) -> Vec<f32> {
+    (0..h)
+        .flat_map(|y| {
+            (0..w).map(move |x| {
+                let v = ((x as f32 * 0.37 + y as f32 * 0.23) * scale + c as f32 + seed).sin();
+                0.5 + 0.45 * v
+            })
+        })
+        .collect()
+}
+
+fn image(w: usize, h: usize, channels: usize, scale: f32, seed: f32) -> Image {
+    let data = (0..channels)
+        .flat_map(|c| plane(w, h, c, scale, seed))
+        .collect();
+    Image::from_planar(w, h, channels, data).unwrap()
+}
+
+/// A low-contrast blue-green "underwater" reference: red flattened most.
+fn reference(w: usize, h: usize) -> Image {
+    let base = image(w, h, 3, 0.8, 2.0);
+    let (gain, offset) = ([0.1f32, 0.5, 0.6], [0.1f32, 0.3, 0.35]);
+    let data = (0..3)
+        .flat_map(|c| base.plane(c).iter().map(move |v| v * gain[c] + offset[c]))
+        .collect();
+    Image::from_planar(w, h, 3, data).unwrap()
+}
+
+fn constant(w: usize, h: usize, v: f32) -> Image {
+    Image::filled(w, h, 1, v)
+}
+
+fn max_abs(a: &Image, b: &Image) -> f32 {
+    a.data()
+        .iter()
+        .zip(b.data())
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f32::max)
+}
+
+#[test]
+fn the_output_stage_in_burn_matches_the_plain_one() {
+    let (w, h) = (40, 24);
+    let device = Device::flex();
+    let raw = {
+        let mut d = image(w, h, 6, 0.6, 1.0).into_data();
+        d.iter_mut().for_each(|v| *v = (*v - 0.5) * 0.8);
+        Image::from_planar(w, h, 6, d).unwrap()
+    };
+    let water = estimate_water(&reference(32, 32)).unwrap();
+    let clean = image(w, h, 3, 1.0, 0.0);
+    let a = anchor(&clean, &water).unwrap();
+    let depth = image(w, h, 1, 0.2, 3.0);
+    let want = finish(&raw, &a, &depth, &water).unwrap();
+    let t = |img: &Image| {
+        Tensor::<4>::from_data(
+            TensorData::new(img.data().to_vec(), [1, img.channels(), h, w]),
+            &device,
+        )
+    };
+    let v =
+        |x: [f32; 3]| Tensor::<4>::from_data(TensorData::new(x.to_vec(), [1, 3, 1, 1]), &device);
+    let got =
+        finish_tensor(t(&raw), t(&a), t(&depth), v(water.veil), v(water.beta)).clamp(0.0, 1.0);
+    let got = Image::from_planar(w, h, 3, got.into_data().try_to_vec::<f32>().unwrap()).unwrap();
+    let d = max_abs(&got, &want);
+    assert!(d < 1e-5, "burn vs plain output stage: {d}");
+}
+
+/// An anchored network at width 8 whose last convolution is random (a fresh one outputs 0).
+fn perturbed(device: &Device) -> (uwnr_model::Generator, GeneratorConfig) {
+    device.seed(5);
+    let config = GeneratorConfig::anchored(8);
+    let mut g = config.init(device).unwrap();
+    let [o, i, k, _] = g.out.weight.dims();
+    g.out.weight = Param::from_tensor(Tensor::random(
+        [o, i, k, k],
+        Distribution::Normal(0.0, 0.05),
+        device,
+    ));
+    (g, config)
+}
+
+#[test]
+fn the_engine_matches_burn_for_the_anchored_variant() {
+    let device = Device::flex();
+    let (g, config) = perturbed(&device);
+    let engine = Network::from_generator(&g, &config, &Backend::Engine).unwrap();
+    let burn = Network::from_generator(&g, &config, &Backend::Burn(device)).unwrap();
+    let style = ReferenceStyle::new(&reference(64, 48), &config).unwrap();
+    assert!(style.water.is_some());
+    let (w, h) = (70, 41);
+    let clean = image(w, h, 3, 1.0, 0.5);
+    let depth = image(w, h, 1, 0.3, 1.5);
+    for opts in [
+        RenderOptions::default(),
+        RenderOptions {
+            max_tile_pixels: 0,
+            tile: 64,
+            overlap: 32,
+        },
+    ] {
+        let a = engine.render(&clean, &depth, &style, &opts).unwrap();
+        let b = burn.render(&clean, &depth, &style, &opts).unwrap();
+        let d = max_abs(&a, &b);
+        assert!(d < 1e-4, "{opts:?}: engine vs flex {d}");
+    }
+    // A style without water is refused by name.
+    let bare = ReferenceStyle::from_light_field(style.light_field.clone());
+    let err = engine
+        .render(&clean, &depth, &bare, &RenderOptions::default())
+        .unwrap_err();
+    assert!(err.to_string().contains("water"), "{err}");
+}
+
+#[test]
+fn a_fresh_anchored_model_is_the_colour_transfer_at_the_reference_depth() {
+    let device = Device::flex();
+    device.seed(3);
+    let config = GeneratorConfig::anchored(8);
+    let g = config.init(&device).unwrap();
+    let net = Network::from_generator(&g, &config, &Backend::Engine).unwrap();
+    let reference = reference(64, 48);
+    let style = ReferenceStyle::new(&reference, &config).unwrap();
+    let clean = image(48, 32, 3, 1.0, 0.5);
+    let out = net
+        .render(
+            &clean,
+            &constant(48, 32, REFERENCE_DEPTH),
+            &style,
+            &RenderOptions::default(),
+        )
+        .unwrap();
+    let want = anchor(&clean, style.water.as_ref().unwrap()).unwrap();
+    assert!(max_abs(&out, &want) < 1e-5);
+}
+
+fn luminance_std(img: &Image) -> f64 {
+    let n = img.width() * img.height();
+    let l: Vec<f64> = (0..n)
+        .map(|i| {
+            0.299 * f64::from(img.plane(0)[i])
+                + 0.587 * f64::from(img.plane(1)[i])
+                + 0.114 * f64::from(img.plane(2)[i])
+        })
+        .collect();
+    let m = l.iter().sum::<f64>() / n as f64;
+    (l.iter().map(|v| (v - m).powi(2)).sum::<f64>() / n as f64).sqrt()
+}
+
+fn mean_rgb(img: &Image) -> [f64; 3] {
+    std::array::from_fn(|c| {
+        img.plane(c).iter().map(|&v| f64::from(v)).sum::<f64>() / img.plane(c).len() as f64
+    })
+}
+
+#[test]
+fn farther_is_hazier_and_closer_to_the_veiling_light_whatever_the_weights() {
+    let device = Device::flex();
+    let (g, config) = perturbed(&device);
+    let net = Network::from_generator(&g, &config, &Backend::Engine).unwrap();
+    let style = ReferenceStyle::new(&reference(64, 48), &config).unwrap();
+    let veil = style.water.as_ref().unwrap().veil;
+    let (w, h) = (48, 32);
+    let clean = image(w, h, 3, 1.0, 0.5);
+    let renders: Vec<Image> = [0.0, 0.25, 0.5, 0.75, 1.0]
+        .iter()
+        .map(|&d| {
+            net.render(
+                &clean,
+                &constant(w, h, d),
+                &style,
+                &RenderOptions::default(),
+            )
+            .unwrap()
+        })
+        .collect();
+    let change = renders[0]
+        .data()
+        .iter()
+        .zip(renders[4].data())
+        .map(|(a, b)| f64::from((a - b).abs()))
+        .sum::<f64>()
+        / renders[0].data().len() as f64;
+    assert!(
+        change * 255.0 > 15.0,
+        "depth 0 vs 1 changes {:.1}/255",
+        change * 255.0
+    );
+    for pair in renders.windows(2) {
+        assert!(luminance_std(&pair[1]) < luminance_std(&pair[0]));
+        let dist = |img: &Image| {
+            let m = mean_rgb(img);
+            (0..3)
+                .map(|c| (m[c] - f64::from(veil[c])).powi(2))
+                .sum::<f64>()
+                .sqrt()
+        };
+        assert!(dist(&pair[1]) <= dist(&pair[0]) + 1e-6);
+    }
+}
