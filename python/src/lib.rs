@@ -386,7 +386,7 @@ impl NativeRenderer {
                 };
                 let worker = renderer.worker().map_err(model)?;
                 let (out, _params) = worker
-                    .render(&clean, &depth, Some(input), job.seed)
+                    .render(&clean, &depth, job.depth.is_none(), Some(input), job.seed)
                     .map_err(Failure::Model)?;
                 Ok(out)
             }
@@ -532,6 +532,7 @@ impl NativeRenderer {
                 max_tile_pixels: max_whole_pixels,
                 tile,
                 overlap,
+                ..Default::default()
             };
             opts.validate()
                 .map_err(|e| PyValueError::new_err(e.to_string()))?;

@@ -179,6 +179,13 @@ pub fn light_field_u8(reference: &U8Image) -> Result<U8Image> {
     light_field_u8_with(reference, LightFieldMap::Paper)
 }
 
+/// Log10 units per unit of the absolute map: a value `v` of [`LightFieldMap::Absolute`] is
+/// `mean over the blurs of log10(blur) / absolute_log10_range()` (before its 8-bit truncation).
+#[must_use]
+pub fn absolute_log10_range() -> f64 {
+    log10_u8_table()[255] + LF_NORM_EPS
+}
+
 /// [`light_field_u8`] with the normalisation `map`.
 pub fn light_field_u8_with(reference: &U8Image, map: LightFieldMap) -> Result<U8Image> {
     let resized = pil_resize_bilinear_u8(reference, LF_REFERENCE_SIZE, LF_REFERENCE_SIZE)?;

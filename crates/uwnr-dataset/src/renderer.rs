@@ -165,6 +165,7 @@ impl Worker<'_> {
         &self,
         clean: &Image,
         depth: &Image,
+        relative_depth: bool,
         reference: Option<ReferenceInput<'_>>,
         seed: u64,
     ) -> std::result::Result<(Image, serde_json::Value), String> {
@@ -172,7 +173,15 @@ impl Worker<'_> {
             Self::Network { generator, net } => {
                 let reference = reference.ok_or("the network needs a reference")?;
                 let out = generator
-                    .render(clean, depth, reference.style, &net.options)
+                    .render(
+                        clean,
+                        depth,
+                        reference.style,
+                        &RenderOptions {
+                            relative_depth,
+                            ..net.options
+                        },
+                    )
                     .map_err(|e| format!("rendering: {e}"))?;
                 Ok((out, json!({ "weights": net.weights })))
             }

@@ -455,8 +455,8 @@ impl Context<'_> {
             Ok(c) => c,
             Err(reason) => return fail(ids, reason),
         };
-        let depth = match self.depth.depth_for(&clean, Some(source)) {
-            Ok(d) => d.map,
+        let (depth, relative_depth) = match self.depth.depth_for(&clean, Some(source)) {
+            Ok(d) => (d.map, d.relative),
             Err(e) => return fail(ids, format!("depth: {e}")),
         };
         let references = if self.refs.is_empty() {
@@ -493,8 +493,14 @@ impl Context<'_> {
                     }
                 }
             };
-            let result =
-                self.make_pair(worker, &clean, &depth, reference, seed, &id, lf_dir_needed);
+            let result = self.make_pair(
+                worker,
+                (&clean, &depth, relative_depth),
+                reference,
+                seed,
+                &id,
+                lf_dir_needed,
+            );
             let msg = match result {
                 Ok((params, reference_source)) => Msg::Pair(Record {
                     id: id.clone(),
@@ -573,8 +579,7 @@ impl Context<'_> {
     fn make_pair(
         &self,
         worker: &Worker<'_>,
-        clean: &Image,
-        depth: &Image,
+        (clean, depth, relative_depth): (&Image, &Image, bool),
         reference: Option<&(usize, Arc<ReferenceStyle>)>,
         seed: u64,
         id: &str,
@@ -599,7 +604,7 @@ impl Context<'_> {
             None => (None, None),
         };
         let lf = input.as_ref().map(|r| &r.style.light_field);
-        let (underwater, params) = worker.render(clean, depth, input, seed)?;
+        let (underwater, params) = worker.render(clean, depth, relative_depth, input, seed)?;
         let name = format!("{id}.png");
         let write = |dir: &str, f: &dyn Fn(&Path) -> uwnr_core::Result<()>| {
             let p = self.out.join(dir).join(&name);

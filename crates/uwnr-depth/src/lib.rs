@@ -96,6 +96,10 @@ pub struct Depth {
     /// Human-readable remarks worth showing the user, e.g.
     /// `"depth map d/a.png 640x480 resized to 481x321"`.
     pub notes: Vec<String>,
+    /// Whether the map is relative: normalised per image (the built-in prior, a monocular
+    /// network, maps read with `normalize`), so its level says nothing about how far the scene
+    /// is; otherwise its values are absolute depths in uwnr's [0, 1] range (maps as stored).
+    pub relative: bool,
 }
 
 /// A [`DepthSource`] ready to produce maps: files indexed or decoded, the model loaded and
@@ -144,12 +148,16 @@ impl PreparedDepth {
     /// the clean image's size. `clean_path` is where the clean image was read from; it is
     /// needed only by a directory of maps (to find the partner by file stem).
     pub fn depth_for(&self, clean: &Image, clean_path: Option<&Path>) -> Result<Depth> {
-        let (map, notes) = match &self.inner {
-            Prepared::Builtin => (builtin_depth(clean)?, Vec::new()),
-            Prepared::Maps(maps) => maps.depth_for(clean, clean_path)?,
-            Prepared::Onnx(model) => model.depth_for(clean)?,
+        let ((map, notes), relative) = match &self.inner {
+            Prepared::Builtin => ((builtin_depth(clean)?, Vec::new()), true),
+            Prepared::Maps(maps) => (maps.depth_for(clean, clean_path)?, maps.normalizes()),
+            Prepared::Onnx(model) => (model.depth_for(clean)?, true),
         };
-        Ok(Depth { map, notes })
+        Ok(Depth {
+            map,
+            notes,
+            relative,
+        })
     }
 }
 

@@ -39,6 +39,11 @@ pub(crate) struct MapSource {
 }
 
 impl MapSource {
+    /// Whether every map is min-max normalised (so relative).
+    pub(crate) fn normalizes(&self) -> bool {
+        self.normalize
+    }
+
     /// Decodes the single map, or lists and indexes the directory.
     pub(crate) fn new(
         path: &Path,

@@ -103,6 +103,13 @@ impl GeneratorConfig {
                     });
                 }
             }
+            if self.light_field != LightFieldMap::Absolute {
+                return Err(ModelError::InvalidConfig {
+                    field: "light_field",
+                    value: 0,
+                    reason: "the anchored variant reads the absolute map (its light-field retention compares absolute maps)".into(),
+                });
+            }
         }
         if self.in_channels == 0 {
             return Err(ModelError::InvalidConfig {

@@ -22,13 +22,14 @@
 
 use burn::tensor::{Device, Tensor, TensorData};
 use uwnr_core::Image;
+use uwnr_core::lightfield::{LightFieldMap, light_field_for_with};
 use uwnr_core::resize::resize_bilinear;
 use uwnr_engine::Planar;
 
 use crate::config::{LEVELS, SIZE_MULTIPLE};
 use crate::error::{ModelError, Result};
 use crate::generator::Generator;
-use crate::style::{ReferenceStyle, Variant, anchor, finish};
+use crate::style::{REFERENCE_DEPTH, ReferenceStyle, Variant, anchor, finish};
 use crate::weights::read_tensor;
 
 /// What tiled rendering needs of a generator implementation (burn's module or the engine),
@@ -162,6 +163,12 @@ pub struct RenderOptions {
     /// Pixels shared by neighbouring tiles (a multiple of 32); half of it extends each tile
     /// beyond its core.
     pub overlap: usize,
+    /// The depth map is relative (normalised per image, as the built-in prior is): the anchored
+    /// variant then takes the image's mean depth to be the reference's and responds only to
+    /// depth differences within the image; with an absolute map (`false`) its mean depth moves
+    /// the whole image towards or away from the veiling light ([`crate::style`]). The paper's
+    /// variant reads depth as given either way.
+    pub relative_depth: bool,
 }
 
 impl Default for RenderOptions {
@@ -173,6 +180,7 @@ impl Default for RenderOptions {
             max_tile_pixels: 1024 * 1024,
             tile: 1024,
             overlap: 6 * OVERLAP_MULTIPLE,
+            relative_depth: true,
         }
     }
 }
@@ -283,9 +291,16 @@ pub(crate) fn render_with(
                     "the anchored model needs the reference's water (ReferenceStyle::new)".into(),
                 )
             })?;
-            let a = anchor(clean, water)?;
+            let a = anchor(clean, water, &lf, |im| {
+                Ok(light_field_for_with(im, w, h, LightFieldMap::Absolute)?)
+            })?;
             let raw = run(generator, variant, &[clean, &lf, &a], opts)?;
-            finish(&raw, &a, depth, water)
+            let reference_depth = if opts.relative_depth {
+                None
+            } else {
+                Some(REFERENCE_DEPTH)
+            };
+            finish(&raw, &a, depth, water, reference_depth)
         }
     }
 }
@@ -611,6 +626,7 @@ mod tests {
                 tile: 192,
                 overlap: 192,
                 max_tile_pixels: 0,
+                ..Default::default()
             },
         ] {
             assert!(bad.validate().is_err(), "{bad:?}");

@@ -11,8 +11,10 @@
 //! x      = concat[clean, light field, A]                                 9 input planes
 //! g, o   = G(x)                                   6 output planes, tanh, zero at initialisation
 //! g', o' = Gaussian blur of g and o, sigma SMOOTH_SIGMA px    (a smooth local correction)
-//! N      = A (1 + g') + o'                       the reference's look at REFERENCE_DEPTH
-//! out    = B + (N - B) · min(exp(-beta (d - REFERENCE_DEPTH)), MAX_GAIN)     per channel
+//! N      = A (1 + g') + o'                       the reference's look at the reference's depth
+//! m      = mean of the depth map d over the image
+//! out    = B + (N - B) · min(exp(-beta (k (d - m) + (m - REFERENCE_DEPTH))), MAX_GAIN)
+//!                                                   per channel, k = LOCAL_DEPTH_STRENGTH
 //! ```
 //!
 //! - The network starts exactly at the colour transfer (the last convolution is zero), and can
@@ -21,15 +23,22 @@
 //!   shows where), but it cannot paint texture, so what it learns on one dataset's pairs cannot
 //!   turn into artefacts on another's.
 //! - Depth acts outside the network, through the image-formation model
-//!   `I = J t + B (1 - t)`, `t = exp(-beta d)`: the anchored render `N` stands for the scene as
+//!   `I = J t + B (1 - t)`, `t = exp(-beta z)`: the anchored render `N` stands for the scene as
 //!   the reference's water shows it at the reference's typical distance (`REFERENCE_DEPTH` of
-//!   the normalised depth map), so `J = B + (N - B) / t(d_ref)` and
-//!   `I(d) = B + (N - B) t(d) / t(d_ref)`. Farther than `d_ref` the image moves towards the veiling
-//!   light `B` and loses contrast; nearer it regains contrast, up to `MAX_GAIN`. Because the
-//!   statistics anchor cannot cancel it and the network never sees depth, the response is
-//!   monotonic by construction, whatever the weights (the training notes found that a network
-//!   fed depth learns to ignore it, since in self-reconstruction the light field already shows
-//!   the target's haze).
+//!   the normalised depth map), so `J = B + (N - B) / t(z_ref)` and
+//!   `I(z) = B + (N - B) t(z) / t(z_ref)`. Farther than the reference the image moves towards the
+//!   veiling light `B` and loses contrast; nearer it regains contrast, up to `MAX_GAIN`. The
+//!   image's mean depth `m` takes the full response (a constant map at 1 is a scene far away);
+//!   depth differences within the image take `LOCAL_DEPTH_STRENGTH` of it, because relative
+//!   depth maps (the built-in prior, a monocular network's) say little about how much water
+//!   lies between near and far parts: measured on `paired/uieb-val` with the prior and the
+//!   network's correction at zero (`examples/depth_strength.rs`), strengths 0, 0.1, 0.25, 0.5
+//!   and 1 score 29.15, 28.80, 27.52, 25.09 and 21.43 dB. The statistics anchor cannot cancel
+//!   the response and the network never sees depth, so it is monotonic by construction,
+//!   whatever the weights (the training notes found that a network fed depth learns to ignore
+//!   it, since in self-reconstruction the light field already shows the target's haze). In
+//!   training the reference is the target, the same scene, so the reference's mean depth is the
+//!   crop's own and only the within-image part acts ([`finish_tensor`]).
 //! - The water's parameters come from the reference ([`estimate_water`]): `B` by the quadtree
 //!   search of Hou et al. (the UISA baseline's), `beta` per channel from how much contrast the
 //!   reference keeps: `t_c(d_ref) = clamp(std_c / AIR_CONTRAST, MIN_TRANSMISSION, 1)`, where
@@ -89,6 +98,14 @@ pub const REFERENCE_DEPTH: f32 = 0.5;
 pub const AIR_CONTRAST: f64 = 0.25;
 /// Floor of the transmission read off a reference's contrast.
 pub const MIN_TRANSMISSION: f64 = 0.15;
+/// Strength of the response to the image's mean depth (a constant map at 1 against the
+/// reference's depth).
+pub const GLOBAL_DEPTH_STRENGTH: f32 = 0.5;
+/// Largest and smallest per-channel gain of the light-field retention step.
+pub const RETENTION_GAIN: (f32, f32) = (0.5, 2.0);
+/// Strength of the depth response within one image, relative to the response to the image's
+/// mean depth (1 = the same water at every pixel).
+pub const LOCAL_DEPTH_STRENGTH: f32 = 0.1;
 /// Largest contrast gain towards depth 0.
 pub const MAX_GAIN: f32 = 2.0;
 /// Stopping size of the veiling-light quadtree search (fraction of the pixels).
@@ -161,10 +178,65 @@ impl ReferenceStyle {
     }
 }
 
-/// The anchor of `clean` for `water`: the Reinhard lαβ transfer to the reference's statistics.
-pub fn anchor(clean: &Image, water: &Water) -> Result<Image> {
+/// The colour transfer of `clean` to the reference's lαβ statistics (the first half of
+/// [`anchor`]).
+pub fn colour_transfer(clean: &Image, water: &Water) -> Result<Image> {
     transfer_to_stats(clean, water.stats, ANCHOR_SPACE)
         .map_err(|e| ModelError::InvalidOptions(e.to_string()))
+}
+
+/// Light-field retention: `transfer` scaled per channel so that its light field matches the
+/// reference's, `x_c * 10^((LF_ref,c - LF_x,c) * R)` (`R` = [`uwnr_core::lightfield::absolute_log10_range`]) clamped to
+/// [`RETENTION_GAIN`]. The absolute map is the mean over its three blurs of
+/// `log10(blur) / ABSOLUTE_RANGE`, so the factor is the geometric mean of the ratios of the
+/// reference's and the transfer's blurred channels: the transfer keeps its own detail and takes
+/// the reference's coarse distribution of light and colour (brighter above, darker at the
+/// bottom, bluer on one side). Both maps must come from the same geometry (at render time the
+/// 256x256 map resized to the image; in training the crop's own).
+pub fn retain_light_field(
+    transfer: &Image,
+    transfer_lf: &Image,
+    reference_lf: &Image,
+) -> Result<Image> {
+    for (what, im) in [
+        ("transfer light field", transfer_lf),
+        ("reference light field", reference_lf),
+    ] {
+        if im.size() != transfer.size() || im.channels() != 3 {
+            return Err(ModelError::ImageSize {
+                what,
+                expected: transfer.size(),
+                got: im.size(),
+            });
+        }
+    }
+    let range = uwnr_core::lightfield::absolute_log10_range() as f32;
+    let mut out = transfer.clone();
+    for c in 0..3 {
+        let (t, r) = (transfer_lf.plane(c), reference_lf.plane(c));
+        for (i, v) in out.plane_mut(c).iter_mut().enumerate() {
+            let gain = 10f32
+                .powf((r[i] - t[i]) * range)
+                .clamp(RETENTION_GAIN.0, RETENTION_GAIN.1);
+            *v = (*v * gain).clamp(0.0, 1.0);
+        }
+    }
+    Ok(out)
+}
+
+/// The anchor of `clean`: the colour transfer to the reference's statistics, with the
+/// reference's light field retained ([`retain_light_field`]). `reference_lf` is the reference's
+/// absolute light field at the clean image's size; `light_field` computes a map of the same
+/// geometry from an image of that size.
+pub fn anchor(
+    clean: &Image,
+    water: &Water,
+    reference_lf: &Image,
+    light_field: impl Fn(&Image) -> Result<Image>,
+) -> Result<Image> {
+    let transfer = colour_transfer(clean, water)?;
+    let transfer_lf = light_field(&transfer)?;
+    retain_light_field(&transfer, &transfer_lf, reference_lf)
 }
 
 /// Normalised Gaussian kernel `exp(-x^2 / (2 sigma^2))`, `x = -radius..=radius`.
@@ -265,14 +337,50 @@ fn blur_plane(p: &mut [f32], w: usize, h: usize, sigma: f64) {
     }
 }
 
-/// Depth factor `min(exp(-beta (d - REFERENCE_DEPTH)), MAX_GAIN)`.
-fn depth_factor(beta: f32, d: f32) -> f32 {
-    (-beta * (d - REFERENCE_DEPTH)).exp().min(MAX_GAIN)
+/// Depth factor `min(exp(-beta (LOCAL_DEPTH_STRENGTH (d - m) + (m - m_ref))), MAX_GAIN)` for a
+/// pixel at depth `d` of an image whose mean depth is `m`, rendered in the water of a reference
+/// whose mean depth is `m_ref`.
+fn depth_factor(beta: f32, d: f32, m: f32, m_ref: f32, local: f32) -> f32 {
+    (-beta * (local * (d - m) + (m - m_ref)))
+        .exp()
+        .min(MAX_GAIN)
+}
+
+/// Mean of a depth plane.
+fn mean_depth(d: &[f32]) -> f32 {
+    (d.iter().map(|&v| f64::from(v)).sum::<f64>() / d.len().max(1) as f64) as f32
 }
 
 /// The anchored variant's output stage on one image (module doc): `raw` is the network's
 /// 6-plane output, `anchor` the colour transfer, `depth` the 1-plane depth map, all one size.
-pub fn finish(raw: &Image, anchor: &Image, depth: &Image, water: &Water) -> Result<Image> {
+/// `reference_depth` is the reference's mean depth ([`REFERENCE_DEPTH`] for an absolute map);
+/// `None` takes it to be the image's own (a relative map).
+pub fn finish(
+    raw: &Image,
+    anchor: &Image,
+    depth: &Image,
+    water: &Water,
+    reference_depth: Option<f32>,
+) -> Result<Image> {
+    finish_with(
+        raw,
+        anchor,
+        depth,
+        water,
+        reference_depth,
+        LOCAL_DEPTH_STRENGTH,
+    )
+}
+
+/// [`finish`] with the within-image strength `local` given (measurements of other settings).
+pub fn finish_with(
+    raw: &Image,
+    anchor: &Image,
+    depth: &Image,
+    water: &Water,
+    reference_depth: Option<f32>,
+    local: f32,
+) -> Result<Image> {
     let (w, h) = anchor.size();
     if raw.size() != (w, h) || depth.size() != (w, h) {
         return Err(ModelError::ImageSize {
@@ -286,20 +394,24 @@ pub fn finish(raw: &Image, anchor: &Image, depth: &Image, water: &Water) -> Resu
         blur_plane(fields.plane_mut(c), w, h, SMOOTH_SIGMA);
     }
     let d = depth.plane(0);
+    let m = mean_depth(d);
+    let reference_depth = reference_depth.unwrap_or(m);
     let mut out = Image::filled(w, h, 3, 0.0);
     for c in 0..3 {
         let (a, g, o) = (anchor.plane(c), fields.plane(c), fields.plane(c + 3));
         let (veil, beta) = (water.veil[c], water.beta[c]);
         for (i, v) in out.plane_mut(c).iter_mut().enumerate() {
             let n = a[i] * (1.0 + g[i]) + o[i];
-            *v = veil + (n - veil) * depth_factor(beta, d[i]);
+            *v = veil + (n - veil) * depth_factor(beta, d[i], m, reference_depth, local);
         }
     }
     out.clamp01();
     Ok(out)
 }
 
-/// [`finish`] on a batch, differentiable (training).
+/// [`finish`] on a batch, differentiable (training), with each sample's reference at the
+/// sample's own mean depth: in self-reconstruction the reference is the target, the same scene,
+/// so only the within-image part of the depth response acts.
 ///
 /// # Shapes
 /// - `raw`: `[b, 6, h, w]`; `anchor`: `[b, 3, h, w]`; `depth`: `[b, 1, h, w]`;
@@ -317,7 +429,8 @@ pub fn finish_tensor(
     let g = fields.clone().slice([0..b, 0..3, 0..h, 0..w]);
     let o = fields.slice([0..b, 3..6, 0..h, 0..w]);
     let n = anchor * (g + 1.0) + o;
-    let factor = (beta.neg() * (depth - REFERENCE_DEPTH))
+    let m = depth.clone().mean_dim(3).mean_dim(2); // [b, 1, 1, 1]
+    let factor = (beta.neg() * ((depth - m) * LOCAL_DEPTH_STRENGTH))
         .exp()
         .clamp_max(MAX_GAIN); // [b, 3, h, w]
     (n - veil.clone()) * factor + veil
@@ -336,11 +449,17 @@ mod tests {
 
     #[test]
     fn depth_factor_is_one_at_the_reference_depth_and_falls() {
-        assert!((depth_factor(2.0, REFERENCE_DEPTH) - 1.0).abs() < 1e-6);
-        assert!(depth_factor(2.0, 1.0) < depth_factor(2.0, 0.75));
-        assert_eq!(depth_factor(20.0, 0.0), MAX_GAIN);
+        let r = REFERENCE_DEPTH;
+        let f = |beta, d| depth_factor(beta, d, d, r, LOCAL_DEPTH_STRENGTH);
+        assert!((f(2.0, r) - 1.0).abs() < 1e-6);
+        assert!(f(2.0, 1.0) < f(2.0, 0.75));
+        assert_eq!(f(20.0, 0.0), MAX_GAIN);
         // No attenuation: no response.
-        assert_eq!(depth_factor(0.0, 1.0), 1.0);
+        assert_eq!(f(0.0, 1.0), 1.0);
+        // Within an image, farther pixels are hazier, less so than a farther image.
+        let local = |d| depth_factor(2.0, d, 0.5, r, LOCAL_DEPTH_STRENGTH);
+        assert!(local(0.8) < local(0.2));
+        assert!(local(0.8) > f(2.0, 0.8));
     }
 
     #[test]

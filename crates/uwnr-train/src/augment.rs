@@ -224,7 +224,10 @@ pub fn make_sample(
             };
             let water = estimate_water(&under_img).map_err(bad)?;
             let clean_img = Image::from_planar(crop, crop, 3, clean)?;
-            let a = anchor(&clean_img, &water).map_err(bad)?;
+            let a = anchor(&clean_img, &water, &lf, |im| {
+                light_field(im).map_err(|e| uwnr_model::ModelError::InvalidOptions(e.to_string()))
+            })
+            .map_err(bad)?;
             input.extend_from_slice(clean_img.data());
             input.extend_from_slice(lf.data());
             input.extend_from_slice(a.data());

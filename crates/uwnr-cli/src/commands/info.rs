@@ -48,6 +48,14 @@ pub fn run(a: &InfoArgs) -> Result<ExitCode> {
         uwnr_model::param_count(&config, true)
     );
     println!("light field: {} map", config.light_field);
+    println!(
+        "variant:     {}",
+        match config.variant {
+            uwnr_model::Variant::Paper => "paper (clean, depth, light field in; the image out)",
+            uwnr_model::Variant::Anchored =>
+                "anchored (clean, light field, Reinhard anchor in; smooth gain and offset out; depth through the image-formation stage)",
+        }
+    );
     let (pw, ph) = (w.div_ceil(16) * 16, h.div_ceil(16) * 16);
     println!(
         "compute:     {:.2} GMac at {w}x{h} (padded to {pw}x{ph})",

@@ -167,6 +167,7 @@ pub fn network_renderer(model: &crate::cli::ModelOpts) -> Result<uwnr_dataset::R
             max_tile_pixels: model.max_whole_pixels,
             tile: model.tile,
             overlap: model.overlap,
+            ..Default::default()
         },
         source,
         &bytes,

@@ -92,6 +92,7 @@ pub fn run(a: &RenderArgs) -> Result<ExitCode> {
                     max_tile_pixels: a.model.max_whole_pixels,
                     tile: a.model.tile,
                     overlap: a.model.overlap,
+                    ..Default::default()
                 },
             }
         }
@@ -175,9 +176,15 @@ fn render_one(
         batch.note(&format!("note: {}: {n}", clean_path.display()));
     }
     let out = match (renderer, reference) {
-        (Renderer::Network { network, opts }, Some(RefInput::Style(style))) => network
-            .render(&clean, &depth.map, style, opts)
-            .context("rendering")?,
+        (Renderer::Network { network, opts }, Some(RefInput::Style(style))) => {
+            let opts = RenderOptions {
+                relative_depth: depth.relative,
+                ..*opts
+            };
+            network
+                .render(&clean, &depth.map, style, &opts)
+                .context("rendering")?
+        }
         (Renderer::Baseline { method, seed }, reference) => {
             let reference = match reference {
                 Some(RefInput::Image(img)) => Some(img),

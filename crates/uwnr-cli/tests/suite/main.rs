@@ -4,6 +4,7 @@ mod cli;
 #[allow(dead_code)]
 mod common;
 mod dataset;
+mod depth_response;
 mod enhance;
 mod experiment;
 mod golden;

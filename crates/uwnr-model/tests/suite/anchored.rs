@@ -4,7 +4,11 @@
 use burn::module::Param;
 use burn::tensor::{Distribution, Tensor, TensorData};
 use uwnr_core::Image;
-use uwnr_model::style::{REFERENCE_DEPTH, anchor, estimate_water, finish, finish_tensor};
+use uwnr_core::lightfield::{LightFieldMap, light_field_for_with};
+use uwnr_core::resize::resize_bilinear;
+use uwnr_model::style::{
+    REFERENCE_DEPTH, anchor, colour_transfer, estimate_water, finish, finish_tensor,
+};
 use uwnr_model::{Backend, Device, GeneratorConfig, Network, ReferenceStyle, RenderOptions};
 
 fn plane(w: usize, h: usize, c: usize, scale: f32, seed: f32) -> Vec<f32> {
@@ -58,9 +62,9 @@ fn the_output_stage_in_burn_matches_the_plain_one() {
     };
     let water = estimate_water(&reference(32, 32)).unwrap();
     let clean = image(w, h, 3, 1.0, 0.0);
-    let a = anchor(&clean, &water).unwrap();
+    let a = colour_transfer(&clean, &water).unwrap();
     let depth = image(w, h, 1, 0.2, 3.0);
-    let want = finish(&raw, &a, &depth, &water).unwrap();
+    let want = finish(&raw, &a, &depth, &water, None).unwrap();
     let t = |img: &Image| {
         Tensor::<4>::from_data(
             TensorData::new(img.data().to_vec(), [1, img.channels(), h, w]),
@@ -107,6 +111,7 @@ fn the_engine_matches_burn_for_the_anchored_variant() {
             max_tile_pixels: 0,
             tile: 64,
             overlap: 32,
+            ..Default::default()
         },
     ] {
         let a = engine.render(&clean, &depth, &style, &opts).unwrap();
@@ -137,10 +142,17 @@ fn a_fresh_anchored_model_is_the_colour_transfer_at_the_reference_depth() {
             &clean,
             &constant(48, 32, REFERENCE_DEPTH),
             &style,
-            &RenderOptions::default(),
+            &RenderOptions {
+                relative_depth: false,
+                ..Default::default()
+            },
         )
         .unwrap();
-    let want = anchor(&clean, style.water.as_ref().unwrap()).unwrap();
+    let lf = resize_bilinear(&style.light_field, 48, 32).unwrap();
+    let want = anchor(&clean, style.water.as_ref().unwrap(), &lf, |im| {
+        Ok(light_field_for_with(im, 48, 32, LightFieldMap::Absolute)?)
+    })
+    .unwrap();
     assert!(max_abs(&out, &want) < 1e-5);
 }
 
@@ -164,6 +176,24 @@ fn mean_rgb(img: &Image) -> [f64; 3] {
 }
 
 #[test]
+fn a_relative_map_responds_only_within_the_image() {
+    let device = Device::flex();
+    let (g, config) = perturbed(&device);
+    let net = Network::from_generator(&g, &config, &Backend::Engine).unwrap();
+    let style = ReferenceStyle::new(&reference(64, 48), &config).unwrap();
+    let clean = image(48, 32, 3, 1.0, 0.5);
+    let opts = RenderOptions::default();
+    assert!(opts.relative_depth);
+    let near = net
+        .render(&clean, &constant(48, 32, 0.0), &style, &opts)
+        .unwrap();
+    let far = net
+        .render(&clean, &constant(48, 32, 1.0), &style, &opts)
+        .unwrap();
+    assert!(max_abs(&near, &far) < 1e-6);
+}
+
+#[test]
 fn farther_is_hazier_and_closer_to_the_veiling_light_whatever_the_weights() {
     let device = Device::flex();
     let (g, config) = perturbed(&device);
@@ -172,16 +202,15 @@ fn farther_is_hazier_and_closer_to_the_veiling_light_whatever_the_weights() {
     let veil = style.water.as_ref().unwrap().veil;
     let (w, h) = (48, 32);
     let clean = image(w, h, 3, 1.0, 0.5);
+    let absolute = RenderOptions {
+        relative_depth: false,
+        ..Default::default()
+    };
     let renders: Vec<Image> = [0.0, 0.25, 0.5, 0.75, 1.0]
         .iter()
         .map(|&d| {
-            net.render(
-                &clean,
-                &constant(w, h, d),
-                &style,
-                &RenderOptions::default(),
-            )
-            .unwrap()
+            net.render(&clean, &constant(w, h, d), &style, &absolute)
+                .unwrap()
         })
         .collect();
     let change = renders[0]

@@ -96,6 +96,7 @@ fn engine_matches_burn_with_random_weights_and_tiles() {
             max_tile_pixels: 0,
             tile: 64,
             overlap: 32,
+            ..Default::default()
         },
     ] {
         let a = engine

@@ -91,6 +91,7 @@ fn tiled_matches_whole_image() {
         max_tile_pixels: 0,
         tile: 256,
         overlap: 192,
+        ..Default::default()
     };
     let tiled = render(&g, &clean, &depth, &lf, &exact, &device).unwrap();
     let (max, mean) = diff(&whole, &tiled);
@@ -101,6 +102,7 @@ fn tiled_matches_whole_image() {
         max_tile_pixels: 0,
         tile: 64,
         overlap: 32,
+        ..Default::default()
     };
     let tiled = render(&g, &clean, &depth, &lf, &small, &device).unwrap();
     let (max, mean) = diff(&whole, &tiled);
