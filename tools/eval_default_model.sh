@@ -43,7 +43,7 @@ for set in $SETS; do
     "$BIN" render "$VAL/clean" --reference "$VAL/underwater" --pairing cycle --output "$out" \
       "$@" >/dev/null 2>&1
   }
-  "$BIN" eval --pred "$VAL/clean" --target "$VAL/underwater" 2>/dev/null | head -1 | sed 's/^image/                       /'
+  "$BIN" eval --pred "$VAL/clean" --target "$VAL/underwater" 2>/dev/null | sed -n '1s/^image/                       /p'
   if [ "${BASELINES:-1}" = 1 ]; then
     score identity "$VAL/clean"
     render "$WORK/$set-meanshift" --method reinhard --reinhard-space rgb --mean-only

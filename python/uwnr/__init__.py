@@ -231,7 +231,9 @@ class Renderer:
             ``uisa`` and ``reinhard``, used by ``seathru`` (coefficients fitted from it), ignored
             by ``jerlov``.
         :param depth: HxW depth map in [0, 1], bright = far (resized to the image if its size
-            differs); ``None`` for the built-in prior.
+            differs), read as absolute depth: 0 at the camera, 1 far away, so with the bundled
+            model a constant 1 renders the scene far off in the reference's water; ``None`` for
+            the built-in prior, a relative map (only depth differences within the image act).
         :param seed, index: the draw of the random parameters: ``item_seed(seed, index)``, with
             ``seed`` defaulting to the renderer's; ``uwnr render`` draws item ``i`` of a batch
             with index ``i``.

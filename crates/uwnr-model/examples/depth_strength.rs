@@ -12,7 +12,7 @@ use uwnr_core::io::{DecodeLimits, load_rgb};
 use uwnr_model::style::{anchor, colour_transfer, estimate_water, finish_with};
 
 fn main() {
-    let strengths = [0.0f32, 0.1, 0.25, 0.5, 1.0];
+    let strengths = [0.0f32, 0.05, 0.1, 0.25, 0.5, 1.0];
     for dir in std::env::args().skip(1) {
         let dir = Path::new(&dir);
         let mut names: Vec<_> = std::fs::read_dir(dir.join("underwater"))
