@@ -168,9 +168,13 @@ fn main() {
         for (k, style) in styles.iter().enumerate() {
             let out = net.render(&clean, &depth, style, &opts).unwrap();
             let st = reference_stats(&out, ColourSpace::LAlphaBeta).unwrap();
-            for c in 0..3 {
-                render_stats[k][0][c] += st.mean[c] / cleans.len() as f64;
-                render_stats[k][1][c] += st.std[c] / cleans.len() as f64;
+            let n = cleans.len() as f64;
+            let [mean, std] = &mut render_stats[k];
+            for (acc, v) in mean.iter_mut().zip(st.mean) {
+                *acc += v / n;
+            }
+            for (acc, v) in std.iter_mut().zip(st.std) {
+                *acc += v / n;
             }
             row.push(out);
         }

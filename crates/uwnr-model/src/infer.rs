@@ -225,6 +225,13 @@ pub fn render(
     opts: &RenderOptions,
     device: &Device,
 ) -> Result<Image> {
+    if light_field.size() != clean.size() {
+        return Err(ModelError::ImageSize {
+            what: "light-field map",
+            expected: clean.size(),
+            got: light_field.size(),
+        });
+    }
     render_with(
         &BurnForward { generator, device },
         Variant::Paper,

@@ -205,11 +205,19 @@ fn lightfield_and_depth_commands_write_maps() {
 }
 
 #[test]
-fn info_reports_the_paper_parameter_count() {
+fn info_reports_the_bundled_model_and_the_variant() {
     let o = uwnr(&["info"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let text = String::from_utf8_lossy(&o.stdout);
-    assert!(text.contains("11569271"), "{text}");
+    // The bundled v3 model: the anchored variant at base width 32.
+    assert!(text.contains("2896178"), "{text}");
+    assert!(text.contains("variant:     anchored"), "{text}");
+    // A file of the paper's generator (the parity fixture, width 8) is the paper's variant.
+    let w = weights();
+    let o = uwnr(&["info", "--weights", s(&w)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(text.contains("variant:     paper"), "{text}");
 }
 
 #[test]
