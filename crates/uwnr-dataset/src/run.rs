@@ -455,8 +455,8 @@ impl Context<'_> {
             Ok(c) => c,
             Err(reason) => return fail(ids, reason),
         };
-        let (depth, relative_depth) = match self.depth.depth_for(&clean, Some(source)) {
-            Ok(d) => (d.map, d.relative),
+        let depth = match self.depth.depth_for(&clean, Some(source)) {
+            Ok(d) => d,
             Err(e) => return fail(ids, format!("depth: {e}")),
         };
         let references = if self.refs.is_empty() {
@@ -493,14 +493,8 @@ impl Context<'_> {
                     }
                 }
             };
-            let result = self.make_pair(
-                worker,
-                (&clean, &depth, relative_depth),
-                reference,
-                seed,
-                &id,
-                lf_dir_needed,
-            );
+            let result =
+                self.make_pair(worker, &clean, &depth, reference, seed, &id, lf_dir_needed);
             let msg = match result {
                 Ok((params, reference_source)) => Msg::Pair(Record {
                     id: id.clone(),
@@ -579,7 +573,8 @@ impl Context<'_> {
     fn make_pair(
         &self,
         worker: &Worker<'_>,
-        (clean, depth, relative_depth): (&Image, &Image, bool),
+        clean: &Image,
+        depth: &uwnr_depth::Depth,
         reference: Option<&(usize, Arc<ReferenceStyle>)>,
         seed: u64,
         id: &str,
@@ -604,7 +599,7 @@ impl Context<'_> {
             None => (None, None),
         };
         let lf = input.as_ref().map(|r| &r.style.light_field);
-        let (underwater, params) = worker.render(clean, depth, relative_depth, input, seed)?;
+        let (underwater, params) = worker.render(clean, &depth.map, depth.relative, input, seed)?;
         let name = format!("{id}.png");
         let write = |dir: &str, f: &dyn Fn(&Path) -> uwnr_core::Result<()>| {
             let p = self.out.join(dir).join(&name);
@@ -614,7 +609,7 @@ impl Context<'_> {
         // but a half-made pair then never has a render without its clean image.
         write(CLEAN_DIR, &|p| save_rgb(p, clean))?;
         if self.spec.save_depth {
-            write(DEPTH_DIR, &|p| save_gray16(p, depth))?;
+            write(DEPTH_DIR, &|p| save_gray16(p, &depth.map))?;
         }
         if save_lightfield {
             let Some(lf) = lf else {

@@ -62,6 +62,7 @@
 use burn::tensor::module::conv2d;
 use burn::tensor::ops::ConvOptions;
 use burn::tensor::{Tensor, TensorData};
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use uwnr_baselines::reinhard::{ChannelStats, reference_stats, transfer_to_stats};
 use uwnr_baselines::{BackgroundPick, ColourSpace, quadtree_background};
@@ -316,27 +317,28 @@ pub fn gaussian_blur(x: Tensor<4>, sigma: f64) -> Tensor<4> {
     blurred / Tensor::<4>::from_data(TensorData::new(norm, [1, 1, h, w]), &device)
 }
 
-/// [`gaussian_blur`] of one `h x w` plane, in place.
+/// [`gaussian_blur`] of one `h x w` plane, in place; rows in parallel.
 fn blur_plane(p: &mut [f32], w: usize, h: usize, sigma: f64) {
     let (rx, ry) = (blur_radius(sigma, w), blur_radius(sigma, h));
     let (kx, ky) = (gaussian_kernel(sigma, rx), gaussian_kernel(sigma, ry));
     let (mx, my) = (inside_mass(&kx, w), inside_mass(&ky, h));
     let mut tmp = vec![0.0f32; w * h];
-    for y in 0..h {
-        let row = &p[y * w..][..w];
-        for x in 0..w {
-            let mut s = 0.0f64;
-            for (k, &kv) in kx.iter().enumerate() {
-                let sx = x as i64 + k as i64 - rx as i64;
-                if (0..w as i64).contains(&sx) {
-                    s += kv * f64::from(row[sx as usize]);
+    tmp.par_chunks_mut(w)
+        .zip(p.par_chunks(w))
+        .for_each(|(out, row)| {
+            for (x, o) in out.iter_mut().enumerate() {
+                let mut s = 0.0f64;
+                for (k, &kv) in kx.iter().enumerate() {
+                    let sx = x as i64 + k as i64 - rx as i64;
+                    if (0..w as i64).contains(&sx) {
+                        s += kv * f64::from(row[sx as usize]);
+                    }
                 }
+                *o = s as f32;
             }
-            tmp[y * w + x] = s as f32;
-        }
-    }
-    for y in 0..h {
-        for x in 0..w {
+        });
+    p.par_chunks_mut(w).enumerate().for_each(|(y, out)| {
+        for (x, o) in out.iter_mut().enumerate() {
             let mut s = 0.0f64;
             for (k, &kv) in ky.iter().enumerate() {
                 let sy = y as i64 + k as i64 - ry as i64;
@@ -344,9 +346,9 @@ fn blur_plane(p: &mut [f32], w: usize, h: usize, sigma: f64) {
                     s += kv * f64::from(tmp[sy as usize * w + x]);
                 }
             }
-            p[y * w + x] = (s / (mx[x] * my[y])) as f32;
+            *o = (s / (mx[x] * my[y])) as f32;
         }
-    }
+    });
 }
 
 /// Depth factor `min(exp(-beta (LOCAL_DEPTH_STRENGTH (d - m) + (m - m_ref))), MAX_GAIN)` for a

@@ -11,23 +11,7 @@ use uwnr_model::style::{
 };
 use uwnr_model::{Backend, Device, GeneratorConfig, Network, ReferenceStyle, RenderOptions};
 
-fn plane(w: usize, h: usize, c: usize, scale: f32, seed: f32) -> Vec<f32> {
-    (0..h)
-        .flat_map(|y| {
-            (0..w).map(move |x| {
-                let v = ((x as f32 * 0.37 + y as f32 * 0.23) * scale + c as f32 + seed).sin();
-                0.5 + 0.45 * v
-            })
-        })
-        .collect()
-}
-
-fn image(w: usize, h: usize, channels: usize, scale: f32, seed: f32) -> Image {
-    let data = (0..channels)
-        .flat_map(|c| plane(w, h, c, scale, seed))
-        .collect();
-    Image::from_planar(w, h, channels, data).unwrap()
-}
+use crate::common::{max_abs, wave_image as image};
 
 /// A low-contrast blue-green "underwater" reference: red flattened most.
 fn reference(w: usize, h: usize) -> Image {
@@ -41,14 +25,6 @@ fn reference(w: usize, h: usize) -> Image {
 
 fn constant(w: usize, h: usize, v: f32) -> Image {
     Image::filled(w, h, 1, v)
-}
-
-fn max_abs(a: &Image, b: &Image) -> f32 {
-    a.data()
-        .iter()
-        .zip(b.data())
-        .map(|(x, y)| (x - y).abs())
-        .fold(0.0, f32::max)
 }
 
 #[test]

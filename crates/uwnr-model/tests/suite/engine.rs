@@ -5,8 +5,11 @@ use std::path::Path;
 
 use uwnr_core::Image;
 use uwnr_model::{
-    Backend, Device, GeneratorConfig, Network, RenderOptions, backend_from_name, load_generator,
+    Backend, Device, GeneratorConfig, Network, ReferenceStyle, RenderOptions, backend_from_name,
+    load_generator,
 };
+
+use crate::common::{max_abs, wave_plane};
 
 /// Max abs difference allowed between the engine and burn on a rendered image.
 const ENGINE_TOL: f32 = 1e-4;
@@ -17,27 +20,9 @@ fn fixture(name: &str) -> std::path::PathBuf {
         .join(name)
 }
 
-fn max_abs(a: &Image, b: &Image) -> f32 {
-    assert_eq!(a.size(), b.size());
-    a.data()
-        .iter()
-        .zip(b.data())
-        .map(|(x, y)| (x - y).abs())
-        .fold(0.0, f32::max)
-}
-
 /// Smooth inputs with structure in every channel.
 fn inputs(w: usize, h: usize, seed: f32) -> (Image, Image, Image) {
-    let plane = |c: usize, scale: f32| -> Vec<f32> {
-        (0..h)
-            .flat_map(|y| {
-                (0..w).map(move |x| {
-                    let v = ((x as f32 * 0.37 + y as f32 * 0.23) * scale + c as f32 + seed).sin();
-                    0.5 + 0.45 * v
-                })
-            })
-            .collect()
-    };
+    let plane = |c: usize, scale: f32| wave_plane(w, h, c, scale, seed);
     let clean: Vec<f32> = (0..3).flat_map(|c| plane(c, 1.0)).collect();
     let lf: Vec<f32> = (0..3).flat_map(|c| plane(c + 5, 0.1)).collect();
     (
@@ -58,22 +43,9 @@ fn engine_matches_burn_on_the_parity_fixture_and_odd_sizes() {
     let opts = RenderOptions::default();
     for (w, h) in [(48, 32), (37, 23), (16, 16), (70, 41)] {
         let (clean, depth, lf) = inputs(w, h, w as f32);
-        let a = engine
-            .render(
-                &clean,
-                &depth,
-                &uwnr_model::ReferenceStyle::from_light_field(lf.clone()),
-                &opts,
-            )
-            .unwrap();
-        let b = burn
-            .render(
-                &clean,
-                &depth,
-                &uwnr_model::ReferenceStyle::from_light_field(lf.clone()),
-                &opts,
-            )
-            .unwrap();
+        let style = ReferenceStyle::from_light_field(lf);
+        let a = engine.render(&clean, &depth, &style, &opts).unwrap();
+        let b = burn.render(&clean, &depth, &style, &opts).unwrap();
         let d = max_abs(&a, &b);
         println!("{w}x{h}: engine vs flex max abs {d:.2e}");
         assert!(d < ENGINE_TOL, "{w}x{h}: {d}");
@@ -89,6 +61,7 @@ fn engine_matches_burn_with_random_weights_and_tiles() {
     let engine = Network::from_generator(&g, &config, &Backend::Engine).unwrap();
     let burn = Network::from_generator(&g, &config, &Backend::Burn(device)).unwrap();
     let (clean, depth, lf) = inputs(100, 75, 0.3);
+    let style = ReferenceStyle::from_light_field(lf);
     for opts in [
         RenderOptions::default(),
         // Forced tiling: global channel means over tiles, blended overlaps.
@@ -99,22 +72,8 @@ fn engine_matches_burn_with_random_weights_and_tiles() {
             ..Default::default()
         },
     ] {
-        let a = engine
-            .render(
-                &clean,
-                &depth,
-                &uwnr_model::ReferenceStyle::from_light_field(lf.clone()),
-                &opts,
-            )
-            .unwrap();
-        let b = burn
-            .render(
-                &clean,
-                &depth,
-                &uwnr_model::ReferenceStyle::from_light_field(lf.clone()),
-                &opts,
-            )
-            .unwrap();
+        let a = engine.render(&clean, &depth, &style, &opts).unwrap();
+        let b = burn.render(&clean, &depth, &style, &opts).unwrap();
         let d = max_abs(&a, &b);
         println!("{opts:?}: engine vs flex max abs {d:.2e}");
         assert!(d < ENGINE_TOL, "{opts:?}: {d}");
