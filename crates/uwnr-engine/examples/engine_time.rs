@@ -1,10 +1,15 @@
 //! Times one forward pass of the full-width generator (random weights) on the engine:
 //! `cargo run --release -p uwnr-engine --example engine_time -- [sizes...] [--direct] [--isa NAME] [--runs N]`.
 //! Prints milliseconds per image (best of the runs) and GFLOP/s against the kernel MAC count.
+//! With `--layers`, also the best time of every layer of the network at each size (the
+//! [`LayerBench`] shapes), to see where a forward pass spends its time.
 
 use std::time::Instant;
 
-use uwnr_engine::{ConvAlgo, EngineOptions, Generator, GeneratorWeights, Isa, Means, Planar};
+use uwnr_engine::{
+    ConvAlgo, EngineOptions, Generator, GeneratorWeights, Isa, LEVELS, LayerBench, LayerKind,
+    Means, Planar,
+};
 
 /// Kernel multiply-accumulates of the paper's network per pixel of input (8.61 GMac at 256^2).
 const MACS_PER_PIXEL: f64 = 8.61e9 / (256.0 * 256.0);
@@ -28,10 +33,12 @@ fn main() {
     let mut sizes = Vec::new();
     let mut opts = EngineOptions::default();
     let mut runs = 5;
+    let mut layers = false;
     let mut it = args.iter();
     while let Some(a) = it.next() {
         match a.as_str() {
             "--direct" => opts.algo = ConvAlgo::Direct,
+            "--layers" => layers = true,
             "--isa" => {
                 let name = it.next().map(String::as_str).unwrap_or("");
                 opts.isa = Isa::ALL
@@ -87,5 +94,41 @@ fn main() {
             best * 1e3,
             best_cpu * 1e3
         );
+        if layers {
+            layer_times(opts, size, runs);
+        }
     }
+}
+
+/// Best time of each layer of the full-width network at input `size`.
+fn layer_times(opts: EngineOptions, size: usize, runs: usize) {
+    let kinds = [
+        (LayerKind::Stride2, "stride-2 3x3"),
+        (LayerKind::Block3x3, "block 3x3"),
+        (LayerKind::SpatialAttention, "spatial attention"),
+        (LayerKind::ChannelAttention, "channel attention"),
+        (LayerKind::Up, "up 3x3"),
+    ];
+    let mut total = 0.0;
+    for (kind, name) in kinds {
+        for level in 0..LEVELS {
+            let Ok(mut layer) = LayerBench::new(kind, opts, 64, level, size) else {
+                continue;
+            };
+            layer.run();
+            let mut best = f64::INFINITY;
+            for _ in 0..runs {
+                let t = Instant::now();
+                layer.run();
+                best = best.min(t.elapsed().as_secs_f64());
+            }
+            total += best;
+            let gflops = 2.0 * layer.macs() as f64 / best / 1e9;
+            println!(
+                "  {name:<18} level {level}: {:7.2} ms ({gflops:.0} GFLOP/s direct-equivalent)",
+                best * 1e3
+            );
+        }
+    }
+    println!("  sum of layers: {:.1} ms", total * 1e3);
 }

@@ -15,6 +15,7 @@
 mod conv;
 pub mod error;
 mod kernels;
+mod narrow;
 mod network;
 pub mod reference;
 mod tensor;

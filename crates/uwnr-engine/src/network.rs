@@ -17,6 +17,7 @@ use crate::conv::Conv;
 use crate::error::{EngineError, Result};
 use crate::kernels::act::{LEAKY_RELU_SLOPE, sigmoid};
 use crate::kernels::{Act, Isa};
+use crate::narrow::Narrow;
 use crate::tensor::{Feature, Planar, Pool};
 use crate::weights::{ATTENTION_REDUCTION, ConvWeights, GeneratorWeights, LEVELS};
 use crate::winograd::Winograd;
@@ -54,11 +55,12 @@ impl Default for EngineOptions {
     }
 }
 
-/// A stride-1 3x3 convolution, direct or Winograd.
+/// A stride-1 3x3 convolution: direct, Winograd, or per-pixel dot products for a few outputs.
 #[derive(Clone, Debug)]
 enum Conv3 {
     Direct(Conv),
     Winograd(Winograd),
+    Narrow(Narrow),
 }
 
 impl Conv3 {
@@ -72,7 +74,9 @@ impl Conv3 {
         act: Act,
         order: Option<&[usize]>,
     ) -> Self {
-        if opts.algo == ConvAlgo::Auto && Winograd::worthwhile(cin, cout) {
+        if order.is_none() && Narrow::applies(cout) {
+            Self::Narrow(Narrow::new(opts.isa, weight, bias, cout, cin, 3, act))
+        } else if opts.algo == ConvAlgo::Auto && Winograd::worthwhile(cin, cout) {
             Self::Winograd(Winograd::new(opts.isa, weight, bias, cout, cin, act, order))
         } else {
             Self::Direct(Conv::new(
@@ -81,10 +85,11 @@ impl Conv3 {
         }
     }
 
-    fn run(&self, src: &Feature, dst: &mut Feature) {
+    fn run(&self, src: &Feature, dst: &mut Feature, pool: &mut Pool) {
         match self {
             Self::Direct(c) => c.run(src, dst),
-            Self::Winograd(c) => c.run(src, dst),
+            Self::Winograd(c) => c.run(src, dst, pool),
+            Self::Narrow(c) => c.run(src, dst),
         }
     }
 }
@@ -307,8 +312,8 @@ impl Generator {
                 pool.give(s);
             }
         }
-        let mut y = Feature::zeros_in(&mut pool, h.h, h.w, self.out_channels, 0);
-        self.out.run(&h, &mut y);
+        let mut y = Feature::output_in(&mut pool, h.h, h.w, self.out_channels, 0);
+        self.out.run(&h, &mut y, &mut pool);
         let out = y.to_planar();
         pool.give(h);
         pool.give(y);
@@ -368,10 +373,10 @@ impl Level {
     /// The stem (the block's residual) and `SA(LeakyReLU(conk1 + conk3 + id))`.
     fn attention_input(&self, x: &Feature, pool: &mut Pool) -> (Feature, Feature) {
         let (ho, wo) = self.stem.out_size(x.h, x.w);
-        let mut stem = Feature::zeros_in(pool, ho, wo, self.c, 1);
+        let mut stem = Feature::output_in(pool, ho, wo, self.c, 1);
         self.stem.run(x, &mut stem);
-        let mut o = Feature::zeros_in(pool, ho, wo, self.c, 0);
-        self.body.run(&stem, &mut o);
+        let mut o = Feature::output_in(pool, ho, wo, self.c, 0);
+        self.body.run(&stem, &mut o, pool);
         self.spatial_attention(&mut o, pool);
         (stem, o)
     }
@@ -380,7 +385,7 @@ impl Level {
     fn spatial_attention(&self, o: &mut Feature, pool: &mut Pool) {
         let (ho, wo) = (o.h, o.w);
         let r = self.c / ATTENTION_REDUCTION;
-        let mut hidden = Feature::zeros_in(pool, ho, wo, r, 0);
+        let mut hidden = Feature::output_in(pool, ho, wo, r, 0);
         self.sa_reduce.run(o, &mut hidden);
         let (c, w2, b2) = (self.c, &self.sa_expand, self.sa_expand_bias);
         o.data
@@ -521,7 +526,11 @@ impl LayerBench {
     pub fn run(&mut self) {
         match self.kind {
             LayerKind::Stride2 => self.level.stem.run(&self.input, &mut self.output),
-            LayerKind::Block3x3 => self.level.body.run(&self.input, &mut self.output),
+            LayerKind::Block3x3 => {
+                self.level
+                    .body
+                    .run(&self.input, &mut self.output, &mut self.pool);
+            }
             LayerKind::SpatialAttention => self
                 .level
                 .spatial_attention(&mut self.output, &mut self.pool),
@@ -532,7 +541,7 @@ impl LayerBench {
             }
             LayerKind::Up => {
                 if let Some(up) = &self.up {
-                    up.run(&self.input, &mut self.output);
+                    up.run(&self.input, &mut self.output, &mut self.pool);
                 }
             }
         }
@@ -625,10 +634,10 @@ fn shuffle_order(cout: usize) -> Vec<usize> {
 /// `PixelShuffle(ELU(conv(x))) + skip` into a padded map.
 fn upsample(conv: &Conv3, x: &Feature, skip: Option<&Feature>, pool: &mut Pool) -> Feature {
     let cout = 2 * x.c;
-    let mut tmp = Feature::zeros_in(pool, x.h, x.w, cout, 0);
-    conv.run(x, &mut tmp);
+    let mut tmp = Feature::output_in(pool, x.h, x.w, cout, 0);
+    conv.run(x, &mut tmp, pool);
     let c = cout / (UPSCALE * UPSCALE);
-    let mut out = Feature::zeros_in(pool, x.h * UPSCALE, x.w * UPSCALE, c, 1);
+    let mut out = Feature::output_in(pool, x.h * UPSCALE, x.w * UPSCALE, c, 1);
     let stride = out.row_stride();
     let (pad, wo) = (out.pad, out.w);
     out.data

@@ -50,15 +50,29 @@ impl Feature {
         }
     }
 
-    /// A zero map whose storage comes from `pool` (no page faults once the pool is warm).
-    pub fn zeros_in(pool: &mut Pool, h: usize, w: usize, c: usize, pad: usize) -> Self {
-        Self {
+    /// A map for an operation to write: storage from `pool` (no page faults and no zeroing
+    /// pass once the pool is warm), the border zero, the interior holding stale values that
+    /// the caller overwrites in full.
+    pub fn output_in(pool: &mut Pool, h: usize, w: usize, c: usize, pad: usize) -> Self {
+        let mut f = Self {
             h,
             w,
             c,
             pad,
-            data: pool.take((h + 2 * pad) * (w + 2 * pad) * c),
+            data: pool.take_stale((h + 2 * pad) * (w + 2 * pad) * c),
+        };
+        if pad > 0 {
+            let stride = f.row_stride();
+            let (top, rest) = f.data.split_at_mut(pad * stride);
+            top.fill(0.0);
+            let (mid, bottom) = rest.split_at_mut(h * stride);
+            bottom.fill(0.0);
+            for row in mid.chunks_exact_mut(stride) {
+                row[..pad * c].fill(0.0);
+                row[stride - pad * c..].fill(0.0);
+            }
         }
+        f
     }
 
     /// Floats between vertically adjacent pixels.
@@ -128,8 +142,9 @@ pub(crate) struct Pool {
 }
 
 impl Pool {
-    /// A zeroed buffer of `n` floats, from the smallest free buffer that holds it.
-    pub fn take(&mut self, n: usize) -> Vec<f32> {
+    /// A buffer of `n` floats, from the smallest free buffer that holds it, with whatever
+    /// values it last held (zeros where it is new).
+    pub fn take_stale(&mut self, n: usize) -> Vec<f32> {
         let best = self
             .free
             .iter()
@@ -141,14 +156,22 @@ impl Pool {
             Some(i) => self.free.swap_remove(i),
             None => Vec::with_capacity(n),
         };
-        v.clear();
-        v.resize(n, 0.0);
+        if v.len() >= n {
+            v.truncate(n);
+        } else {
+            v.resize(n, 0.0);
+        }
         v
     }
 
     /// Returns a feature map's storage.
     pub fn give(&mut self, f: Feature) {
         self.free.push(f.data);
+    }
+
+    /// Returns a buffer.
+    pub fn give_vec(&mut self, v: Vec<f32>) {
+        self.free.push(v);
     }
 
     /// Moves the buffers of `other` into this pool, keeping at most [`MAX_POOLED`] buffers
@@ -203,5 +226,20 @@ mod tests {
         assert_eq!(f.data[f.at(1, 2) + 1], 12.0);
         assert_eq!(f.data.iter().filter(|&&v| v == 0.0).count(), 40 - 12);
         assert_eq!(f.to_planar(), p);
+    }
+
+    #[test]
+    fn a_reused_buffer_gets_a_zero_border() {
+        let mut pool = Pool::default();
+        pool.give_vec(vec![7.0; 100]);
+        let f = Feature::output_in(&mut pool, 3, 2, 2, 1);
+        assert_eq!(f.data.len(), 5 * 4 * 2);
+        for y in 0..5 {
+            for x in 0..4 {
+                let interior = (1..4).contains(&y) && (1..3).contains(&x);
+                let v = f.data[(y * 4 + x) * 2];
+                assert_eq!(v == 0.0, !interior, "({y}, {x}) = {v}");
+            }
+        }
     }
 }

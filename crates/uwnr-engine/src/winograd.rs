@@ -10,7 +10,7 @@
 use rayon::prelude::*;
 
 use crate::kernels::{Act, Isa, Tile, act, run_tile};
-use crate::tensor::{Feature, SharedMut};
+use crate::tensor::{Feature, Pool, SharedMut};
 
 /// Output tile side.
 const M: usize = 4;
@@ -20,11 +20,15 @@ const T: usize = 6;
 const E: usize = T * T;
 /// Below these channel counts the transforms cost more than the products they save.
 const MIN_CHANNELS: usize = 16;
-/// Bytes of transformed input and products held per chunk of tiles.
+/// Bytes of transformed input and products held per chunk of tiles, at least: small enough
+/// for the caches when the transformed weights are small.
 const CHUNK_BYTES: usize = 8 << 20;
+/// At most: a layer whose transformed weights `U` are large streams them from memory once per
+/// chunk, so its chunk grows with `U` (twice its size) up to this.
+const MAX_CHUNK_BYTES: usize = 64 << 20;
 /// Chunk size bounds, in tiles.
 const MIN_CHUNK: usize = 48;
-const MAX_CHUNK: usize = 1024;
+const MAX_CHUNK: usize = 4096;
 
 /// `G` (6x3) of F(4, 3).
 const G: [[f64; 3]; T] = [
@@ -113,19 +117,21 @@ impl Winograd {
         }
     }
 
-    /// Writes the convolution of `src` (padded by 1) into `dst` (same size, `cout` channels).
-    pub fn run(&self, src: &Feature, dst: &mut Feature) {
+    /// Writes the convolution of `src` (padded by 1) into `dst` (same size, `cout` channels);
+    /// the transformed input and the products live in buffers of `pool`.
+    pub fn run(&self, src: &Feature, dst: &mut Feature, pool: &mut Pool) {
         debug_assert_eq!(src.pad, 1);
         debug_assert_eq!((src.c, dst.c), (self.cin, self.cout));
         debug_assert_eq!((src.h, src.w), (dst.h, dst.w));
         let (ty, tx) = (src.h.div_ceil(M), src.w.div_ceil(M));
         let tiles = ty * tx;
         let per_tile = E * (self.cin + self.cout) * std::mem::size_of::<f32>();
-        let chunk = (CHUNK_BYTES / per_tile)
-            .clamp(MIN_CHUNK, MAX_CHUNK)
-            .min(tiles);
-        let mut v = vec![0.0f32; E * chunk * self.cin];
-        let mut m = vec![0.0f32; E * chunk * self.cout];
+        let budget =
+            (2 * self.u.len() * std::mem::size_of::<f32>()).clamp(CHUNK_BYTES, MAX_CHUNK_BYTES);
+        let chunk = (budget / per_tile).clamp(MIN_CHUNK, MAX_CHUNK).min(tiles);
+        // Every run of V and M a product reads is written first, so stale buffers do.
+        let mut v = pool.take_stale(E * chunk * self.cin);
+        let mut m = pool.take_stale(E * chunk * self.cout);
         let mut start = 0;
         while start < tiles {
             let n = chunk.min(tiles - start);
@@ -134,6 +140,8 @@ impl Winograd {
             self.output_transform(&m, dst, tx, start, n, chunk);
             start += n;
         }
+        pool.give_vec(v);
+        pool.give_vec(m);
     }
 
     /// `V[e][t][ci]` for tiles `start .. start + n`.
@@ -149,27 +157,34 @@ impl Winograd {
         let cin = self.cin;
         let vp = SharedMut(v.as_mut_ptr());
         let isa = self.isa;
+        let stride = src.row_stride();
         (0..n).into_par_iter().for_each_init(
             || Scratch::new(E * cin),
             |sc, t| {
                 let Scratch { a: d, b: s } = sc;
                 let tile = start + t;
                 let (oy, ox) = ((tile / tx) * M, (tile % tx) * M);
-                // Padded rows / columns oy .. oy + 6 hold input rows oy - 1 .. oy + 4.
-                for r in 0..T {
-                    let py = oy + r;
-                    let row = &mut d[r * T * cin..(r + 1) * T * cin];
-                    if py >= src.h + 2 {
-                        row.fill(0.0);
-                        continue;
+                // Padded rows / columns oy .. oy + 6 hold input rows oy - 1 .. oy + 4. A tile
+                // inside the padded map is read where it lies; one over its edge is gathered
+                // into `d` with zeros beyond.
+                let (rows, cols) = ((src.h + 2 - oy).min(T), (src.w + 2 - ox).min(T));
+                let (tile_src, tile_stride): (&[f32], usize) = if rows == T && cols == T {
+                    (&src.data[oy * stride + ox * cin..], stride)
+                } else {
+                    for r in 0..T {
+                        let row = &mut d[r * T * cin..(r + 1) * T * cin];
+                        if r >= rows {
+                            row.fill(0.0);
+                            continue;
+                        }
+                        let base = (oy + r) * stride + ox * cin;
+                        row[..cols * cin].copy_from_slice(&src.data[base..base + cols * cin]);
+                        row[cols * cin..].fill(0.0);
                     }
-                    let cols = (src.w + 2 - ox).min(T);
-                    let base = py * src.row_stride() + ox * cin;
-                    row[..cols * cin].copy_from_slice(&src.data[base..base + cols * cin]);
-                    row[cols * cin..].fill(0.0);
-                }
+                    (&d[..], T * cin)
+                };
                 // SAFETY: tile t owns V[e][t][..] for every e; the ISA is supported.
-                unsafe { transform_input(isa, d, s, vp, t, chunk, cin) };
+                unsafe { transform_input(isa, tile_src, tile_stride, s, vp, t, chunk, cin) };
             },
         );
     }
@@ -231,25 +246,29 @@ impl Winograd {
             |sc, t| {
                 let tile = start + t;
                 let (oy, ox) = ((tile / tx) * M, (tile % tx) * M);
-                // SAFETY: reads M[e][t][..]; the ISA is supported.
-                unsafe { transform_output(isa, m, t, chunk, cout, bias, act, sc) };
-                let o = &sc.b;
-                for r in 0..M.min(h - oy) {
-                    for s in 0..M.min(w - ox) {
-                        let at = origin + (oy + r) * row_stride + (ox + s) * cout;
-                        // SAFETY: pixel (oy + r, ox + s) is inside dst and belongs to this tile.
-                        unsafe {
-                            std::ptr::copy_nonoverlapping(
-                                o[(r * M + s) * cout..].as_ptr(),
-                                dp.get().add(at),
-                                cout,
-                            );
-                        }
-                    }
-                }
+                let out = OutTile {
+                    dst: dp,
+                    at: origin + oy * row_stride + ox * cout,
+                    row_stride,
+                    rows: M.min(h - oy),
+                    cols: M.min(w - ox),
+                };
+                // SAFETY: reads M[e][t][..]; writes the tile's own valid pixels of dst; the
+                // ISA is supported.
+                unsafe { transform_output(isa, m, t, chunk, cout, bias, act, sc, &out) };
             },
         );
     }
+}
+
+/// Where one output tile's valid pixels go.
+struct OutTile {
+    dst: SharedMut,
+    /// Index of the tile's pixel (0, 0).
+    at: usize,
+    row_stride: usize,
+    rows: usize,
+    cols: usize,
 }
 
 /// Per-thread scratch of the transforms.
@@ -270,11 +289,13 @@ impl Scratch {
 /// Dispatches the input transform to the ISA's compilation of it.
 ///
 /// # Safety
-/// `isa` supported; `v` holds `E * chunk * cin` floats and tile `t < chunk`; no other thread
-/// writes tile `t`.
+/// `isa` supported; `d` holds the tile's 6 rows, `stride` floats apart, of 6 pixels of `cin`;
+/// `v` holds `E * chunk * cin` floats and tile `t < chunk`; no other thread writes tile `t`.
+#[allow(clippy::too_many_arguments)]
 unsafe fn transform_input(
     isa: Isa,
-    d: &mut [f32],
+    d: &[f32],
+    stride: usize,
     s: &mut [f32],
     v: SharedMut,
     t: usize,
@@ -284,49 +305,46 @@ unsafe fn transform_input(
     match isa {
         #[cfg(target_arch = "x86_64")]
         // SAFETY: forwarded.
-        Isa::Avx512 => unsafe { input_avx512(d, s, v, t, chunk, cin) },
+        Isa::Avx512 => unsafe { input_avx512(d, stride, s, v, t, chunk, cin) },
         #[cfg(target_arch = "x86_64")]
-        Isa::Avx2 => unsafe { input_avx2(d, s, v, t, chunk, cin) },
-        _ => unsafe { input_generic(d, s, v, t, chunk, cin) },
+        Isa::Avx2 => unsafe { input_avx2(d, stride, s, v, t, chunk, cin) },
+        _ => unsafe { input_generic(d, stride, s, v, t, chunk, cin) },
     }
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
 unsafe fn input_avx512(
-    d: &mut [f32],
+    d: &[f32],
+    stride: usize,
     s: &mut [f32],
     v: SharedMut,
     t: usize,
     chunk: usize,
     cin: usize,
 ) {
-    unsafe { input_generic(d, s, v, t, chunk, cin) }
+    unsafe { input_generic(d, stride, s, v, t, chunk, cin) }
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 unsafe fn input_avx2(
-    d: &mut [f32],
+    d: &[f32],
+    stride: usize,
     s: &mut [f32],
     v: SharedMut,
     t: usize,
     chunk: usize,
     cin: usize,
 ) {
-    unsafe { input_generic(d, s, v, t, chunk, cin) }
+    unsafe { input_generic(d, stride, s, v, t, chunk, cin) }
 }
 
-/// `y[i] = (B^T x)[i]` for six channel runs `x[0..6]`; `y` is six contiguous runs of `n`.
+/// `y[i] = (B^T x)[i]` for six channel runs `x[0..6]` of `n` into six runs `y[0..6]`.
 #[inline(always)]
-fn bt6(x: [&[f32]; T], y: &mut [f32], n: usize) {
+fn bt6(x: [&[f32]; T], y: [&mut [f32]; T], n: usize) {
     let [x0, x1, x2, x3, x4, x5] = x.map(|s| &s[..n]);
-    let (y0, rest) = y.split_at_mut(n);
-    let (y1, rest) = rest.split_at_mut(n);
-    let (y2, rest) = rest.split_at_mut(n);
-    let (y3, rest) = rest.split_at_mut(n);
-    let (y4, rest) = rest.split_at_mut(n);
-    let y5 = &mut rest[..n];
+    let [y0, y1, y2, y3, y4, y5] = y.map(|s| &mut s[..n]);
     for c in 0..n {
         let (d0, d1, d2, d3, d4, d5) = (x0[c], x1[c], x2[c], x3[c], x4[c], x5[c]);
         y0[c] = 4.0 * d0 - 5.0 * d2 + d4;
@@ -338,51 +356,45 @@ fn bt6(x: [&[f32]; T], y: &mut [f32], n: usize) {
     }
 }
 
-/// `V = B^T d B` of one tile; `d` is `[6 rows][6 cols][cin]`, `s` scratch of `E * cin`.
+/// `V = B^T d B` of one tile, written straight into its runs of `V`; `s` is scratch of
+/// `E * cin`.
 ///
 /// # Safety
 /// As [`transform_input`].
 #[inline(always)]
 unsafe fn input_generic(
-    d: &mut [f32],
+    d: &[f32],
+    stride: usize,
     s: &mut [f32],
     v: SharedMut,
     t: usize,
     chunk: usize,
     cin: usize,
 ) {
-    fn run(buf: &[f32], i: usize, n: usize) -> &[f32] {
-        &buf[i * n..(i + 1) * n]
-    }
     // Down the columns: s[col][i] = sum_r BT[i][r] d[r][col].
-    for col in 0..T {
-        let d: &[f32] = d;
-        let x: [&[f32]; T] = std::array::from_fn(|r| run(d, r * T + col, cin));
-        bt6(x, &mut s[col * T * cin..(col + 1) * T * cin], cin);
+    for (col, sc) in s.chunks_exact_mut(T * cin).take(T).enumerate() {
+        let x: [&[f32]; T] = std::array::from_fn(|r| &d[r * stride + col * cin..][..cin]);
+        let mut runs = sc.chunks_exact_mut(cin);
+        let y: [&mut [f32]; T] = std::array::from_fn(|_| runs.next().expect("six runs"));
+        bt6(x, y, cin);
     }
-    // Along the rows: V[i][j] = sum_col BT[j][col] s[col][i], six runs of row i at once.
-    // The gathered tile is no longer needed: its first six runs hold one row of V.
-    let row = &mut d[..T * cin];
+    // Along the rows: V[i][j] = sum_col BT[j][col] s[col][i].
+    let s: &[f32] = s;
     for i in 0..T {
-        let x: [&[f32]; T] = std::array::from_fn(|col| run(s, col * T + i, cin));
-        bt6(x, row, cin);
-        for j in 0..T {
-            // SAFETY: V[i * T + j][t] is this tile's own run.
-            unsafe {
-                std::ptr::copy_nonoverlapping(
-                    row[j * cin..].as_ptr(),
-                    v.get().add(((i * T + j) * chunk + t) * cin),
-                    cin,
-                );
-            }
-        }
+        let x: [&[f32]; T] = std::array::from_fn(|col| &s[(col * T + i) * cin..][..cin]);
+        // SAFETY: V[i * T + j][t] (j < 6) are this tile's own runs of cin floats.
+        let y: [&mut [f32]; T] = std::array::from_fn(|j| unsafe {
+            std::slice::from_raw_parts_mut(v.get().add(((i * T + j) * chunk + t) * cin), cin)
+        });
+        bt6(x, y, cin);
     }
 }
 
 /// Dispatches the output transform.
 ///
 /// # Safety
-/// `isa` supported; `m` holds `E * chunk * cout` floats, `t < chunk`.
+/// `isa` supported; `m` holds `E * chunk * cout` floats, `t < chunk`; `out` names pixels of a
+/// map of `cout` channels that only this tile writes.
 #[allow(clippy::too_many_arguments)]
 unsafe fn transform_output(
     isa: Isa,
@@ -393,19 +405,21 @@ unsafe fn transform_output(
     bias: &[f32],
     a: Act,
     sc: &mut Scratch,
+    out: &OutTile,
 ) {
     match isa {
         #[cfg(target_arch = "x86_64")]
         // SAFETY: forwarded.
-        Isa::Avx512 => unsafe { output_avx512(m, t, chunk, cout, bias, a, sc) },
+        Isa::Avx512 => unsafe { output_avx512(m, t, chunk, cout, bias, a, sc, out) },
         #[cfg(target_arch = "x86_64")]
-        Isa::Avx2 => unsafe { output_avx2(m, t, chunk, cout, bias, a, sc) },
-        _ => output_generic(m, t, chunk, cout, bias, a, sc),
+        Isa::Avx2 => unsafe { output_avx2(m, t, chunk, cout, bias, a, sc, out) },
+        _ => unsafe { output_generic(m, t, chunk, cout, bias, a, sc, out) },
     }
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
+#[allow(clippy::too_many_arguments)]
 unsafe fn output_avx512(
     m: &[f32],
     t: usize,
@@ -414,12 +428,14 @@ unsafe fn output_avx512(
     bias: &[f32],
     a: Act,
     sc: &mut Scratch,
+    out: &OutTile,
 ) {
-    output_generic(m, t, chunk, cout, bias, a, sc);
+    unsafe { output_generic(m, t, chunk, cout, bias, a, sc, out) };
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
+#[allow(clippy::too_many_arguments)]
 unsafe fn output_avx2(
     m: &[f32],
     t: usize,
@@ -428,18 +444,16 @@ unsafe fn output_avx2(
     bias: &[f32],
     a: Act,
     sc: &mut Scratch,
+    out: &OutTile,
 ) {
-    output_generic(m, t, chunk, cout, bias, a, sc);
+    unsafe { output_generic(m, t, chunk, cout, bias, a, sc, out) };
 }
 
-/// `y[r] = (A^T x)[r]` for six channel runs; `y` is four contiguous runs of `n`.
+/// `y[r] = (A^T x)[r]` for six channel runs into four runs.
 #[inline(always)]
-fn at6(x: [&[f32]; T], y: &mut [f32], n: usize) {
+fn at6(x: [&[f32]; T], y: [&mut [f32]; M], n: usize) {
     let [x0, x1, x2, x3, x4, x5] = x.map(|s| &s[..n]);
-    let (y0, rest) = y.split_at_mut(n);
-    let (y1, rest) = rest.split_at_mut(n);
-    let (y2, rest) = rest.split_at_mut(n);
-    let y3 = &mut rest[..n];
+    let [y0, y1, y2, y3] = y.map(|s| &mut s[..n]);
     for c in 0..n {
         let (m0, m1, m2, m3, m4, m5) = (x0[c], x1[c], x2[c], x3[c], x4[c], x5[c]);
         let (s12, d12, s34, d34) = (m1 + m2, m1 - m2, m3 + m4, m3 - m4);
@@ -450,9 +464,14 @@ fn at6(x: [&[f32]; T], y: &mut [f32], n: usize) {
     }
 }
 
-/// `sc.b[r][s][c] = act(bias[c] + (A^T M A)[r][s][c])` of one tile.
+/// `dst[r][s][c] = act(bias[c] + (A^T M A)[r][s][c])` for the tile's valid pixels; the
+/// others go to scratch.
+///
+/// # Safety
+/// As [`transform_output`].
 #[inline(always)]
-fn output_generic(
+#[allow(clippy::too_many_arguments)]
+unsafe fn output_generic(
     m: &[f32],
     t: usize,
     chunk: usize,
@@ -460,24 +479,52 @@ fn output_generic(
     bias: &[f32],
     a: Act,
     sc: &mut Scratch,
+    out: &OutTile,
 ) {
-    let Scratch { a: tmp, b: o } = sc;
+    let Scratch { a: tmp, b: spare } = sc;
     // Down the columns: tmp[j][r] = sum_i AT[r][i] M[i][j].
-    for j in 0..T {
+    for (j, tc) in tmp.chunks_exact_mut(M * cout).take(T).enumerate() {
         let x: [&[f32]; T] =
             std::array::from_fn(|i| &m[((i * T + j) * chunk + t) * cout..][..cout]);
-        at6(x, &mut tmp[j * M * cout..(j + 1) * M * cout], cout);
+        let mut runs = tc.chunks_exact_mut(cout);
+        let y: [&mut [f32]; M] = std::array::from_fn(|_| runs.next().expect("four runs"));
+        at6(x, y, cout);
     }
-    // Along the rows: o[r][s] = sum_j AT[s][j] tmp[j][r].
+    // Along the rows: o[r][s] = sum_j AT[s][j] tmp[j][r], into the pixels themselves.
+    let tmp: &[f32] = tmp;
+    let mut spare = spare.chunks_exact_mut(cout);
     for r in 0..M {
         let x: [&[f32]; T] = std::array::from_fn(|j| &tmp[(j * M + r) * cout..][..cout]);
-        at6(x, &mut o[r * M * cout..(r + 1) * M * cout], cout);
-    }
-    for px in o[..M * M * cout].chunks_exact_mut(cout) {
-        for (v, b) in px.iter_mut().zip(bias) {
-            *v += b;
+        let y: [&mut [f32]; M] = std::array::from_fn(|s| {
+            if r < out.rows && s < out.cols {
+                // SAFETY: pixel (r, s) of the tile is inside dst and only this tile writes it.
+                unsafe {
+                    std::slice::from_raw_parts_mut(
+                        out.dst.get().add(out.at + r * out.row_stride + s * cout),
+                        cout,
+                    )
+                }
+            } else {
+                spare.next().expect("spare runs")
+            }
+        });
+        at6(x, y, cout);
+        for s in 0..out.cols.min(M) {
+            if r >= out.rows {
+                break;
+            }
+            // SAFETY: as above.
+            let px = unsafe {
+                std::slice::from_raw_parts_mut(
+                    out.dst.get().add(out.at + r * out.row_stride + s * cout),
+                    cout,
+                )
+            };
+            for (v, b) in px.iter_mut().zip(bias) {
+                *v += b;
+            }
+            act::apply(a, px);
         }
-        act::apply(a, px);
     }
 }
 
@@ -527,7 +574,7 @@ mod tests {
                 let conv = Winograd::new(isa, &weight, &bias, cout, cin, Act::Elu, Some(&order));
                 let src = Feature::from_planar(&input, 1);
                 let mut dst = Feature::zeros(h, w, cout, 1);
-                conv.run(&src, &mut dst);
+                conv.run(&src, &mut dst, &mut Pool::default());
                 let got = dst.to_planar();
                 let mut diff = 0.0f32;
                 for (n, &o) in order.iter().enumerate() {

@@ -4,7 +4,8 @@
 //!
 //! Threads come from rayon (`RAYON_NUM_THREADS`). Prints the median of the timed runs after one
 //! warm-up, one `RESULT <path> <size> <ms>` line per measurement, and `PEAK <GFLOP/s>`: the FP32
-//! FMA throughput of this machine on that many threads (independent FMA chains, AVX2+FMA).
+//! FMA throughput of this machine on that many threads (independent FMA chains on the widest
+//! vectors the CPU has).
 
 // The peak measurement calls `std::arch` FMA intrinsics, which are unsafe.
 #![allow(unsafe_code)]
@@ -39,45 +40,76 @@ fn time<F: FnMut()>(runs: usize, mut f: F) -> f64 {
 
 /// Chains of FMAs per thread (enough to cover the FMA latency on two pipes).
 #[cfg(target_arch = "x86_64")]
-const CHAINS: usize = 12;
+const CHAINS: usize = 16;
 #[cfg(target_arch = "x86_64")]
-const PEAK_ITERS: usize = 50_000_000;
+const PEAK_ITERS: usize = 20_000_000;
 
+/// `CHAINS` independent FMA chains of `PEAK_ITERS` steps on 16-lane vectors; every chain feeds
+/// the result, so none can be optimised away.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+fn fma_chains_avx512(b: f32) -> f32 {
+    use std::arch::x86_64::{_mm512_add_ps, _mm512_fmadd_ps, _mm512_reduce_add_ps, _mm512_set1_ps};
+    let (b, c) = (_mm512_set1_ps(b), _mm512_set1_ps(1e-4));
+    let mut acc = [_mm512_set1_ps(1.0); CHAINS];
+    for _ in 0..PEAK_ITERS {
+        for a in &mut acc {
+            *a = _mm512_fmadd_ps(*a, b, c);
+        }
+    }
+    let sum = acc.iter().fold(_mm512_set1_ps(0.0), |s, &a| _mm512_add_ps(s, a));
+    _mm512_reduce_add_ps(sum)
+}
+
+/// As [`fma_chains_avx512`] on 8-lane AVX2 vectors.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-fn fma_chains() -> f32 {
-    use std::arch::x86_64::{_mm256_fmadd_ps, _mm256_set1_ps, _mm256_storeu_ps};
-    let (b, c) = (_mm256_set1_ps(0.999_9), _mm256_set1_ps(1e-4));
+fn fma_chains_avx2(b: f32) -> f32 {
+    use std::arch::x86_64::{_mm256_add_ps, _mm256_fmadd_ps, _mm256_set1_ps, _mm256_storeu_ps};
+    let (b, c) = (_mm256_set1_ps(b), _mm256_set1_ps(1e-4));
     let mut acc = [_mm256_set1_ps(1.0); CHAINS];
     for _ in 0..PEAK_ITERS {
         for a in &mut acc {
             *a = _mm256_fmadd_ps(*a, b, c);
         }
     }
+    let sum = acc.iter().fold(_mm256_set1_ps(0.0), |s, &a| _mm256_add_ps(s, a));
     let mut out = [0.0f32; 8];
     // SAFETY: out holds 8 floats.
-    unsafe { _mm256_storeu_ps(out.as_mut_ptr(), acc[0]) };
-    out[0]
+    unsafe { _mm256_storeu_ps(out.as_mut_ptr(), sum) };
+    out.iter().sum()
 }
 
-/// Measured FP32 FMA peak in GFLOP/s on all of rayon's threads.
+/// Measured FP32 FMA peak in GFLOP/s on all of rayon's threads, with the widest vectors the
+/// CPU has (AVX-512F, else AVX2+FMA).
 fn peak_gflops() -> Option<f64> {
     #[cfg(target_arch = "x86_64")]
     {
-        if !(std::arch::is_x86_feature_detected!("avx2")
-            && std::arch::is_x86_feature_detected!("fma"))
+        let lanes = if std::arch::is_x86_feature_detected!("avx512f") {
+            16
+        } else if std::arch::is_x86_feature_detected!("avx2")
+            && std::arch::is_x86_feature_detected!("fma")
         {
+            8
+        } else {
             return None;
-        }
+        };
         let threads = rayon::current_num_threads();
+        let b = black_box(0.999_9f32);
         let t = Instant::now();
         let s: f32 = (0..threads)
             .into_par_iter()
-            // SAFETY: AVX2 and FMA were detected above.
-            .map(|_| unsafe { fma_chains() })
+            // SAFETY: the instruction set was detected above.
+            .map(|_| unsafe {
+                if lanes == 16 {
+                    fma_chains_avx512(b)
+                } else {
+                    fma_chains_avx2(b)
+                }
+            })
             .sum();
         black_box(s);
-        let flops = (threads * PEAK_ITERS * CHAINS * 8 * 2) as f64;
+        let flops = (threads * PEAK_ITERS * CHAINS * lanes * 2) as f64;
         Some(flops / t.elapsed().as_secs_f64() / 1e9)
     }
     #[cfg(not(target_arch = "x86_64"))]
