@@ -134,6 +134,7 @@ impl Conv {
                     m,
                     n,
                     act: self.act,
+                    accumulate: false,
                 };
                 // SAFETY: the A reads stay inside the padded source (rows s y .. s y + 2 of
                 // the padded map, columns s x .. s (x + m - 1) + 2), B and bias inside the

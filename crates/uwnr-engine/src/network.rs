@@ -20,7 +20,7 @@ use crate::kernels::{Act, Isa};
 use crate::narrow::Narrow;
 use crate::tensor::{Feature, Planar, Pool};
 use crate::weights::{ATTENTION_REDUCTION, ConvWeights, GeneratorWeights, LEVELS};
-use crate::winograd::Winograd;
+use crate::winograd::{WinoTile, Winograd};
 
 /// Height and width of the input must be multiples of this (four stride-2 levels).
 pub const SIZE_MULTIPLE: usize = 1 << LEVELS;
@@ -77,7 +77,14 @@ impl Conv3 {
         if order.is_none() && Narrow::applies(cout) {
             Self::Narrow(Narrow::new(opts.isa, weight, bias, cout, cin, 3, act))
         } else if opts.algo == ConvAlgo::Auto && Winograd::worthwhile(cin, cout) {
-            Self::Winograd(Winograd::new(opts.isa, weight, bias, cout, cin, act, order))
+            let tile = if std::env::var_os("WINO_F2").is_some() && cin >= 256 {
+                WinoTile::F2
+            } else {
+                WinoTile::F4
+            };
+            Self::Winograd(Winograd::new(
+                opts.isa, tile, weight, bias, cout, cin, act, order,
+            ))
         } else {
             Self::Direct(Conv::new(
                 opts.isa, weight, bias, cout, cin, 3, 1, act, order,

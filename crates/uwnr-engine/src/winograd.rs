@@ -12,12 +12,6 @@ use rayon::prelude::*;
 use crate::kernels::{Act, Isa, Tile, act, run_tile};
 use crate::tensor::{Feature, Pool, SharedMut};
 
-/// Output tile side.
-const M: usize = 4;
-/// Input tile side (`M + 3 - 1`).
-const T: usize = 6;
-/// Products per tile (`T * T`).
-const E: usize = T * T;
 /// Below these channel counts the transforms cost more than the products they save.
 const MIN_CHANNELS: usize = 16;
 /// Bytes of transformed input and products held per chunk of tiles, at least: small enough
@@ -26,12 +20,14 @@ const CHUNK_BYTES: usize = 8 << 20;
 /// At most: a layer whose transformed weights `U` are large streams them from memory once per
 /// chunk, so its chunk grows with `U` (twice its size) up to this.
 const MAX_CHUNK_BYTES: usize = 64 << 20;
+/// Reduction block of the products: `KC x NR` weights (32 KiB for AVX-512) stay in L1.
+const KC: usize = 192;
 /// Chunk size bounds, in tiles.
 const MIN_CHUNK: usize = 48;
 const MAX_CHUNK: usize = 4096;
 
 /// `G` (6x3) of F(4, 3).
-const G: [[f64; 3]; T] = [
+const G4: [[f64; 3]; 6] = [
     [1.0 / 4.0, 0.0, 0.0],
     [-1.0 / 6.0, -1.0 / 6.0, -1.0 / 6.0],
     [-1.0 / 6.0, 1.0 / 6.0, -1.0 / 6.0],
@@ -40,10 +36,52 @@ const G: [[f64; 3]; T] = [
     [0.0, 0.0, 1.0],
 ];
 
-/// A stride-1 3x3 convolution with zero padding 1, by Winograd F(4x4, 3x3).
+/// `G` (4x3) of F(2, 3), interpolation points 0, +-1.
+const G2: [[f64; 3]; 4] = [
+    [1.0, 0.0, 0.0],
+    [0.5, 0.5, 0.5],
+    [0.5, -0.5, 0.5],
+    [0.0, 0.0, 1.0],
+];
+
+/// The output tile of a Winograd convolution.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum WinoTile {
+    /// F(4x4, 3x3): 36 products per 16 outputs (4x fewer multiplies than direct), transformed
+    /// weights 4x the size of the kernel.
+    F4,
+    /// F(2x2, 3x3): 16 products per 4 outputs (2.25x fewer), weights 16/9 the size: for deep,
+    /// small layers, where streaming the transformed weights costs more than the products.
+    F2,
+}
+
+impl WinoTile {
+    /// Output tile side.
+    pub fn m(self) -> usize {
+        match self {
+            Self::F4 => 4,
+            Self::F2 => 2,
+        }
+    }
+
+    /// Input tile side.
+    pub fn t(self) -> usize {
+        self.m() + 2
+    }
+
+    fn g(self, i: usize, k: usize) -> f64 {
+        match self {
+            Self::F4 => G4[i][k],
+            Self::F2 => G2[i][k],
+        }
+    }
+}
+
+/// A stride-1 3x3 convolution with zero padding 1, by Winograd F(4x4, 3x3) or F(2x2, 3x3).
 #[derive(Clone, Debug)]
 pub(crate) struct Winograd {
     isa: Isa,
+    tile: WinoTile,
     cin: usize,
     cout: usize,
     act: Act,
@@ -61,8 +99,10 @@ impl Winograd {
 
     /// Transforms PyTorch-layout weights `[cout][cin][3][3]`; packed output channel `n` is
     /// original channel `order[n]`.
+    #[allow(clippy::too_many_arguments)]
     pub fn new(
         isa: Isa,
+        tile: WinoTile,
         weight: &[f32],
         bias: &[f32],
         cout: usize,
@@ -72,14 +112,16 @@ impl Winograd {
     ) -> Self {
         let nr = isa.nr();
         let panels = cout.div_ceil(nr);
-        let mut u = vec![0.0f32; E * panels * cin * nr];
+        let t = tile.t();
+        let e_n = t * t;
+        let mut u = vec![0.0f32; e_n * panels * cin * nr];
         let mut packed_bias = vec![0.0; cout];
         for (n, b) in packed_bias.iter_mut().enumerate() {
             *b = bias[order.map_or(n, |o| o[n])];
         }
         // One (panel, input channel) at a time, so each product's NR columns are written as
         // one contiguous run.
-        let mut run = vec![0.0f32; E * nr];
+        let mut run = vec![0.0f32; e_n * nr];
         for p in 0..panels {
             for ci in 0..cin {
                 run.fill(0.0);
@@ -88,20 +130,22 @@ impl Winograd {
                     let co = order.map_or(n, |o| o[n]);
                     let g = &weight[(co * cin + ci) * 9..(co * cin + ci + 1) * 9];
                     // G g G^T.
-                    let mut gg = [[0.0f64; 3]; T];
-                    for (i, row) in gg.iter_mut().enumerate() {
+                    let mut gg = [[0.0f64; 3]; 6];
+                    for (i, row) in gg.iter_mut().enumerate().take(t) {
                         for (kx, v) in row.iter_mut().enumerate() {
-                            *v = (0..3).map(|ky| G[i][ky] * f64::from(g[ky * 3 + kx])).sum();
+                            *v = (0..3)
+                                .map(|ky| tile.g(i, ky) * f64::from(g[ky * 3 + kx]))
+                                .sum();
                         }
                     }
-                    for i in 0..T {
-                        for j in 0..T {
-                            let v: f64 = (0..3).map(|kx| gg[i][kx] * G[j][kx]).sum();
-                            run[(i * T + j) * nr + col] = v as f32;
+                    for i in 0..t {
+                        for j in 0..t {
+                            let v: f64 = (0..3).map(|kx| gg[i][kx] * tile.g(j, kx)).sum();
+                            run[(i * t + j) * nr + col] = v as f32;
                         }
                     }
                 }
-                for e in 0..E {
+                for e in 0..e_n {
                     let at = (e * panels + p) * cin * nr + ci * nr;
                     u[at..at + nr].copy_from_slice(&run[e * nr..(e + 1) * nr]);
                 }
@@ -109,6 +153,7 @@ impl Winograd {
         }
         Self {
             isa,
+            tile,
             cin,
             cout,
             act,
@@ -120,24 +165,39 @@ impl Winograd {
     /// Writes the convolution of `src` (padded by 1) into `dst` (same size, `cout` channels);
     /// the transformed input and the products live in buffers of `pool`.
     pub fn run(&self, src: &Feature, dst: &mut Feature, pool: &mut Pool) {
+        match self.tile {
+            WinoTile::F4 => self.run_with::<4, 6>(src, dst, pool),
+            WinoTile::F2 => self.run_with::<2, 4>(src, dst, pool),
+        }
+    }
+
+    /// [`Self::run`] for output tiles of `M` (input tiles of `T = M + 2`).
+    fn run_with<const M: usize, const T: usize>(
+        &self,
+        src: &Feature,
+        dst: &mut Feature,
+        pool: &mut Pool,
+    ) {
+        const { assert!(T == M + 2) };
+        let e_n = T * T;
         debug_assert_eq!(src.pad, 1);
         debug_assert_eq!((src.c, dst.c), (self.cin, self.cout));
         debug_assert_eq!((src.h, src.w), (dst.h, dst.w));
         let (ty, tx) = (src.h.div_ceil(M), src.w.div_ceil(M));
         let tiles = ty * tx;
-        let per_tile = E * (self.cin + self.cout) * std::mem::size_of::<f32>();
+        let per_tile = e_n * (self.cin + self.cout) * std::mem::size_of::<f32>();
         let budget =
             (2 * self.u.len() * std::mem::size_of::<f32>()).clamp(CHUNK_BYTES, MAX_CHUNK_BYTES);
         let chunk = (budget / per_tile).clamp(MIN_CHUNK, MAX_CHUNK).min(tiles);
         // Every run of V and M a product reads is written first, so stale buffers do.
-        let mut v = pool.take_stale(E * chunk * self.cin);
-        let mut m = pool.take_stale(E * chunk * self.cout);
+        let mut v = pool.take_stale(e_n * chunk * self.cin);
+        let mut m = pool.take_stale(e_n * chunk * self.cout);
         let mut start = 0;
         while start < tiles {
             let n = chunk.min(tiles - start);
-            self.input_transform(src, tx, start, n, chunk, &mut v);
-            self.products(&v, &mut m, n, chunk);
-            self.output_transform(&m, dst, tx, start, n, chunk);
+            self.input_transform::<M, T>(src, tx, start, n, chunk, &mut v);
+            self.products(T * T, &v, &mut m, n, chunk);
+            self.output_transform::<M, T>(&m, dst, tx, start, n, chunk);
             start += n;
         }
         pool.give_vec(v);
@@ -145,7 +205,7 @@ impl Winograd {
     }
 
     /// `V[e][t][ci]` for tiles `start .. start + n`.
-    fn input_transform(
+    fn input_transform<const M: usize, const T: usize>(
         &self,
         src: &Feature,
         tx: usize,
@@ -159,7 +219,7 @@ impl Winograd {
         let isa = self.isa;
         let stride = src.row_stride();
         (0..n).into_par_iter().for_each_init(
-            || Scratch::new(E * cin),
+            || Scratch::new(T * T * cin),
             |sc, t| {
                 let Scratch { a: d, b: s } = sc;
                 let tile = start + t;
@@ -184,49 +244,58 @@ impl Winograd {
                     (&d[..], T * cin)
                 };
                 // SAFETY: tile t owns V[e][t][..] for every e; the ISA is supported.
-                unsafe { transform_input(isa, tile_src, tile_stride, s, vp, t, chunk, cin) };
+                unsafe { transform_input::<T>(isa, tile_src, tile_stride, s, vp, t, chunk, cin) };
             },
         );
     }
 
     /// `M_e = V_e U_e` for every product `e`, split over (e, panel).
-    fn products(&self, v: &[f32], m: &mut [f32], n: usize, chunk: usize) {
+    fn products(&self, e_n: usize, v: &[f32], m: &mut [f32], n: usize, chunk: usize) {
         let (cin, cout, isa) = (self.cin, self.cout, self.isa);
         let (nr, mr) = (isa.nr(), isa.mr());
         let panels = cout.div_ceil(nr);
         let zero_bias = [0.0f32; crate::kernels::MAX_NR];
         let mp = SharedMut(m.as_mut_ptr());
         let taps = [0isize];
-        (0..E * panels).into_par_iter().for_each(|item| {
+        (0..e_n * panels).into_par_iter().for_each(|item| {
             let (e, p) = (item / panels, item % panels);
             let cols = (cout - p * nr).min(nr);
-            let mut t = 0;
-            while t < n {
-                let rows = (n - t).min(mr);
-                let tile = Tile {
-                    // SAFETY (pointer arithmetic): inside V, U and M by their shapes.
-                    a: unsafe { v.as_ptr().add((e * chunk + t) * cin) },
-                    lda: cin,
-                    taps: &taps,
-                    k: cin,
-                    b: unsafe { self.u.as_ptr().add((e * panels + p) * cin * nr) },
-                    bias: zero_bias.as_ptr(),
-                    c: unsafe { mp.get().add((e * chunk + t) * cout + p * nr) },
-                    ldc: cout,
-                    m: rows,
-                    n: cols,
-                    act: Act::Identity,
-                };
-                // SAFETY: reads rows t .. t + rows of V_e and panel p of U_e; writes those rows
-                // of M_e in panel p's columns, which no other item writes.
-                unsafe { run_tile(isa, &tile) };
-                t += rows;
+            // Blocks of the reduction small enough that the panel's KC x NR weights stay in L1
+            // while every row tile of the chunk passes over them.
+            let mut kb = 0;
+            while kb < cin {
+                let kc = KC.min(cin - kb);
+                let mut t = 0;
+                while t < n {
+                    let rows = (n - t).min(mr);
+                    let tile = Tile {
+                        // SAFETY (pointer arithmetic): inside V, U and M by their shapes.
+                        a: unsafe { v.as_ptr().add((e * chunk + t) * cin + kb) },
+                        lda: cin,
+                        taps: &taps,
+                        k: kc,
+                        b: unsafe { self.u.as_ptr().add(((e * panels + p) * cin + kb) * nr) },
+                        bias: zero_bias.as_ptr(),
+                        c: unsafe { mp.get().add((e * chunk + t) * cout + p * nr) },
+                        ldc: cout,
+                        m: rows,
+                        n: cols,
+                        act: Act::Identity,
+                        accumulate: kb > 0,
+                    };
+                    // SAFETY: reads rows t .. t + rows of V_e (columns kb .. kb + kc) and that
+                    // block of panel p of U_e; writes those rows of M_e in panel p's columns,
+                    // which no other item writes.
+                    unsafe { run_tile(isa, &tile) };
+                    t += rows;
+                }
+                kb += kc;
             }
         });
     }
 
     /// `A^T M A` + bias, activation, into the valid pixels of each output tile.
-    fn output_transform(
+    fn output_transform<const M: usize, const T: usize>(
         &self,
         m: &[f32],
         dst: &mut Feature,
@@ -242,7 +311,7 @@ impl Winograd {
         let origin = dst.at(0, 0);
         let (isa, act, bias) = (self.isa, self.act, &self.bias[..]);
         (0..n).into_par_iter().for_each_init(
-            || Scratch::new(E * cout),
+            || Scratch::new(T * T * cout),
             |sc, t| {
                 let tile = start + t;
                 let (oy, ox) = ((tile / tx) * M, (tile % tx) * M);
@@ -255,7 +324,7 @@ impl Winograd {
                 };
                 // SAFETY: reads M[e][t][..]; writes the tile's own valid pixels of dst; the
                 // ISA is supported.
-                unsafe { transform_output(isa, m, t, chunk, cout, bias, act, sc, &out) };
+                unsafe { transform_output::<M, T>(isa, m, t, chunk, cout, bias, act, sc, &out) };
             },
         );
     }
@@ -292,7 +361,7 @@ impl Scratch {
 /// `isa` supported; `d` holds the tile's 6 rows, `stride` floats apart, of 6 pixels of `cin`;
 /// `v` holds `E * chunk * cin` floats and tile `t < chunk`; no other thread writes tile `t`.
 #[allow(clippy::too_many_arguments)]
-unsafe fn transform_input(
+unsafe fn transform_input<const T: usize>(
     isa: Isa,
     d: &[f32],
     stride: usize,
@@ -305,16 +374,16 @@ unsafe fn transform_input(
     match isa {
         #[cfg(target_arch = "x86_64")]
         // SAFETY: forwarded.
-        Isa::Avx512 => unsafe { input_avx512(d, stride, s, v, t, chunk, cin) },
+        Isa::Avx512 => unsafe { input_avx512::<T>(d, stride, s, v, t, chunk, cin) },
         #[cfg(target_arch = "x86_64")]
-        Isa::Avx2 => unsafe { input_avx2(d, stride, s, v, t, chunk, cin) },
-        _ => unsafe { input_generic(d, stride, s, v, t, chunk, cin) },
+        Isa::Avx2 => unsafe { input_avx2::<T>(d, stride, s, v, t, chunk, cin) },
+        _ => unsafe { input_generic::<T>(d, stride, s, v, t, chunk, cin) },
     }
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
-unsafe fn input_avx512(
+unsafe fn input_avx512<const T: usize>(
     d: &[f32],
     stride: usize,
     s: &mut [f32],
@@ -323,12 +392,12 @@ unsafe fn input_avx512(
     chunk: usize,
     cin: usize,
 ) {
-    unsafe { input_generic(d, stride, s, v, t, chunk, cin) }
+    unsafe { input_generic::<T>(d, stride, s, v, t, chunk, cin) }
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-unsafe fn input_avx2(
+unsafe fn input_avx2<const T: usize>(
     d: &[f32],
     stride: usize,
     s: &mut [f32],
@@ -337,12 +406,46 @@ unsafe fn input_avx2(
     chunk: usize,
     cin: usize,
 ) {
-    unsafe { input_generic(d, stride, s, v, t, chunk, cin) }
+    unsafe { input_generic::<T>(d, stride, s, v, t, chunk, cin) }
 }
 
-/// `y[i] = (B^T x)[i]` for six channel runs `x[0..6]` of `n` into six runs `y[0..6]`.
+/// `y = B^T x` over `T` channel runs of `n`: [`bt6`] or [`bt4`].
 #[inline(always)]
-fn bt6(x: [&[f32]; T], y: [&mut [f32]; T], n: usize) {
+fn bt<const T: usize>(x: [&[f32]; T], y: [&mut [f32]; T], n: usize) {
+    let mut xs = x.into_iter();
+    let mut ys = y.into_iter();
+    if T == 6 {
+        bt6(
+            std::array::from_fn(|_| xs.next().expect("T runs")),
+            std::array::from_fn(|_| ys.next().expect("T runs")),
+            n,
+        );
+    } else {
+        bt4(
+            std::array::from_fn(|_| xs.next().expect("T runs")),
+            std::array::from_fn(|_| ys.next().expect("T runs")),
+            n,
+        );
+    }
+}
+
+/// `y[i] = (B^T x)[i]` of F(2, 3) for four channel runs.
+#[inline(always)]
+fn bt4(x: [&[f32]; 4], y: [&mut [f32]; 4], n: usize) {
+    let [x0, x1, x2, x3] = x.map(|s| &s[..n]);
+    let [y0, y1, y2, y3] = y.map(|s| &mut s[..n]);
+    for c in 0..n {
+        let (d0, d1, d2, d3) = (x0[c], x1[c], x2[c], x3[c]);
+        y0[c] = d0 - d2;
+        y1[c] = d1 + d2;
+        y2[c] = d2 - d1;
+        y3[c] = d1 - d3;
+    }
+}
+
+/// `y[i] = (B^T x)[i]` of F(4, 3) for six channel runs `x[0..6]` of `n` into six runs.
+#[inline(always)]
+fn bt6(x: [&[f32]; 6], y: [&mut [f32]; 6], n: usize) {
     let [x0, x1, x2, x3, x4, x5] = x.map(|s| &s[..n]);
     let [y0, y1, y2, y3, y4, y5] = y.map(|s| &mut s[..n]);
     for c in 0..n {
@@ -362,7 +465,7 @@ fn bt6(x: [&[f32]; T], y: [&mut [f32]; T], n: usize) {
 /// # Safety
 /// As [`transform_input`].
 #[inline(always)]
-unsafe fn input_generic(
+unsafe fn input_generic<const T: usize>(
     d: &[f32],
     stride: usize,
     s: &mut [f32],
@@ -375,18 +478,18 @@ unsafe fn input_generic(
     for (col, sc) in s.chunks_exact_mut(T * cin).take(T).enumerate() {
         let x: [&[f32]; T] = std::array::from_fn(|r| &d[r * stride + col * cin..][..cin]);
         let mut runs = sc.chunks_exact_mut(cin);
-        let y: [&mut [f32]; T] = std::array::from_fn(|_| runs.next().expect("six runs"));
-        bt6(x, y, cin);
+        let y: [&mut [f32]; T] = std::array::from_fn(|_| runs.next().expect("T runs"));
+        bt::<T>(x, y, cin);
     }
     // Along the rows: V[i][j] = sum_col BT[j][col] s[col][i].
     let s: &[f32] = s;
     for i in 0..T {
         let x: [&[f32]; T] = std::array::from_fn(|col| &s[(col * T + i) * cin..][..cin]);
-        // SAFETY: V[i * T + j][t] (j < 6) are this tile's own runs of cin floats.
+        // SAFETY: V[i * T + j][t] (j < T) are this tile's own runs of cin floats.
         let y: [&mut [f32]; T] = std::array::from_fn(|j| unsafe {
             std::slice::from_raw_parts_mut(v.get().add(((i * T + j) * chunk + t) * cin), cin)
         });
-        bt6(x, y, cin);
+        bt::<T>(x, y, cin);
     }
 }
 
@@ -396,7 +499,7 @@ unsafe fn input_generic(
 /// `isa` supported; `m` holds `E * chunk * cout` floats, `t < chunk`; `out` names pixels of a
 /// map of `cout` channels that only this tile writes.
 #[allow(clippy::too_many_arguments)]
-unsafe fn transform_output(
+unsafe fn transform_output<const M: usize, const T: usize>(
     isa: Isa,
     m: &[f32],
     t: usize,
@@ -410,17 +513,17 @@ unsafe fn transform_output(
     match isa {
         #[cfg(target_arch = "x86_64")]
         // SAFETY: forwarded.
-        Isa::Avx512 => unsafe { output_avx512(m, t, chunk, cout, bias, a, sc, out) },
+        Isa::Avx512 => unsafe { output_avx512::<M, T>(m, t, chunk, cout, bias, a, sc, out) },
         #[cfg(target_arch = "x86_64")]
-        Isa::Avx2 => unsafe { output_avx2(m, t, chunk, cout, bias, a, sc, out) },
-        _ => unsafe { output_generic(m, t, chunk, cout, bias, a, sc, out) },
+        Isa::Avx2 => unsafe { output_avx2::<M, T>(m, t, chunk, cout, bias, a, sc, out) },
+        _ => unsafe { output_generic::<M, T>(m, t, chunk, cout, bias, a, sc, out) },
     }
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
 #[allow(clippy::too_many_arguments)]
-unsafe fn output_avx512(
+unsafe fn output_avx512<const M: usize, const T: usize>(
     m: &[f32],
     t: usize,
     chunk: usize,
@@ -430,13 +533,13 @@ unsafe fn output_avx512(
     sc: &mut Scratch,
     out: &OutTile,
 ) {
-    unsafe { output_generic(m, t, chunk, cout, bias, a, sc, out) };
+    unsafe { output_generic::<M, T>(m, t, chunk, cout, bias, a, sc, out) };
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 #[allow(clippy::too_many_arguments)]
-unsafe fn output_avx2(
+unsafe fn output_avx2<const M: usize, const T: usize>(
     m: &[f32],
     t: usize,
     chunk: usize,
@@ -446,12 +549,44 @@ unsafe fn output_avx2(
     sc: &mut Scratch,
     out: &OutTile,
 ) {
-    unsafe { output_generic(m, t, chunk, cout, bias, a, sc, out) };
+    unsafe { output_generic::<M, T>(m, t, chunk, cout, bias, a, sc, out) };
 }
 
-/// `y[r] = (A^T x)[r]` for six channel runs into four runs.
+/// `y = A^T x` from `T` channel runs into `M`: [`at6`] or [`at4`].
 #[inline(always)]
-fn at6(x: [&[f32]; T], y: [&mut [f32]; M], n: usize) {
+fn at<const M: usize, const T: usize>(x: [&[f32]; T], y: [&mut [f32]; M], n: usize) {
+    let mut xs = x.into_iter();
+    let mut ys = y.into_iter();
+    if T == 6 {
+        at6(
+            std::array::from_fn(|_| xs.next().expect("T runs")),
+            std::array::from_fn(|_| ys.next().expect("M runs")),
+            n,
+        );
+    } else {
+        at4(
+            std::array::from_fn(|_| xs.next().expect("T runs")),
+            std::array::from_fn(|_| ys.next().expect("M runs")),
+            n,
+        );
+    }
+}
+
+/// `y[r] = (A^T x)[r]` of F(2, 3) for four channel runs into two.
+#[inline(always)]
+fn at4(x: [&[f32]; 4], y: [&mut [f32]; 2], n: usize) {
+    let [x0, x1, x2, x3] = x.map(|s| &s[..n]);
+    let [y0, y1] = y.map(|s| &mut s[..n]);
+    for c in 0..n {
+        let (m0, m1, m2, m3) = (x0[c], x1[c], x2[c], x3[c]);
+        y0[c] = m0 + m1 + m2;
+        y1[c] = m1 - m2 - m3;
+    }
+}
+
+/// `y[r] = (A^T x)[r]` of F(4, 3) for six channel runs into four runs.
+#[inline(always)]
+fn at6(x: [&[f32]; 6], y: [&mut [f32]; 4], n: usize) {
     let [x0, x1, x2, x3, x4, x5] = x.map(|s| &s[..n]);
     let [y0, y1, y2, y3] = y.map(|s| &mut s[..n]);
     for c in 0..n {
@@ -471,7 +606,7 @@ fn at6(x: [&[f32]; T], y: [&mut [f32]; M], n: usize) {
 /// As [`transform_output`].
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-unsafe fn output_generic(
+unsafe fn output_generic<const M: usize, const T: usize>(
     m: &[f32],
     t: usize,
     chunk: usize,
@@ -487,8 +622,8 @@ unsafe fn output_generic(
         let x: [&[f32]; T] =
             std::array::from_fn(|i| &m[((i * T + j) * chunk + t) * cout..][..cout]);
         let mut runs = tc.chunks_exact_mut(cout);
-        let y: [&mut [f32]; M] = std::array::from_fn(|_| runs.next().expect("four runs"));
-        at6(x, y, cout);
+        let y: [&mut [f32]; M] = std::array::from_fn(|_| runs.next().expect("M runs"));
+        at::<M, T>(x, y, cout);
     }
     // Along the rows: o[r][s] = sum_j AT[s][j] tmp[j][r], into the pixels themselves.
     let tmp: &[f32] = tmp;
@@ -508,7 +643,7 @@ unsafe fn output_generic(
                 spare.next().expect("spare runs")
             }
         });
-        at6(x, y, cout);
+        at::<M, T>(x, y, cout);
         for s in 0..out.cols.min(M) {
             if r >= out.rows {
                 break;
@@ -556,7 +691,10 @@ mod tests {
             (32, 16, 1, 2),
             (16, 48, 9, 4),
         ];
-        for isa in Isa::supported() {
+        for (isa, tile) in Isa::supported()
+            .into_iter()
+            .flat_map(|i| [(i, WinoTile::F4), (i, WinoTile::F2)])
+        {
             for (i, &(cin, cout, h, w)) in cases.iter().enumerate() {
                 let weight = values(i as u64 + 1, cout * cin * 9, 0.3);
                 let bias = values(i as u64 + 50, cout, 0.5);
@@ -571,7 +709,8 @@ mod tests {
                     Act::Elu,
                     reference::conv2d(&input, &weight, &bias, cout, 3, 1),
                 );
-                let conv = Winograd::new(isa, &weight, &bias, cout, cin, Act::Elu, Some(&order));
+                let conv =
+                    Winograd::new(isa, tile, &weight, &bias, cout, cin, Act::Elu, Some(&order));
                 let src = Feature::from_planar(&input, 1);
                 let mut dst = Feature::zeros(h, w, cout, 1);
                 conv.run(&src, &mut dst, &mut Pool::default());
@@ -583,7 +722,7 @@ mod tests {
                     let e = &want.data[o * plane..(o + 1) * plane];
                     diff = diff.max(reference::max_abs_diff(g, e));
                 }
-                assert!(diff < 2e-5, "{isa:?} case {i}: {diff}");
+                assert!(diff < 2e-5, "{isa:?} {tile:?} case {i}: {diff}");
             }
         }
     }

@@ -139,6 +139,9 @@ pub(crate) struct Tile<'a> {
     pub n: usize,
     /// Epilogue activation.
     pub act: Act,
+    /// Add the sums to the values `C` holds instead of overwriting them (a later block of a
+    /// split reduction; then the bias should be zero and the activation the identity).
+    pub accumulate: bool,
 }
 
 /// Runs one tile on `isa`.
@@ -168,12 +171,28 @@ pub(crate) unsafe fn run_tile(isa: Isa, t: &Tile<'_>) {
 #[inline(always)]
 pub(crate) unsafe fn epilogue<const NR: usize>(t: &Tile<'_>, buf: &mut [[f32; NR]]) {
     for (row, vals) in buf.iter_mut().enumerate().take(t.m) {
+        if t.accumulate {
+            for (n, v) in vals.iter_mut().enumerate().take(t.n) {
+                // SAFETY: row < m, n < t.n: inside the caller's output range.
+                *v += unsafe { *t.c.add(row * t.ldc + n) };
+            }
+        }
         for (n, v) in vals.iter_mut().enumerate() {
             // SAFETY: bias holds NR values.
             *v += unsafe { *t.bias.add(n) };
         }
         act::apply(t.act, vals);
         // SAFETY: row < m, n <= NR: inside the caller's output range.
-        unsafe { std::ptr::copy_nonoverlapping(vals.as_ptr(), t.c.add(row * t.ldc), t.n) };
+        unsafe {
+            let dst = t.c.add(row * t.ldc);
+            if t.n == NR {
+                // A copy of constant length becomes vector stores, not a call to memcpy.
+                std::ptr::copy_nonoverlapping(vals.as_ptr(), dst, NR);
+            } else {
+                for (n, &v) in vals.iter().enumerate().take(t.n) {
+                    *dst.add(n) = v;
+                }
+            }
+        }
     }
 }
