@@ -1,5 +1,5 @@
 //! Times one forward pass of the full-width generator (random weights) on the engine:
-//! `cargo run --release -p uwnr-engine --example engine_time -- [sizes...] [--direct] [--isa NAME] [--runs N]`.
+//! `cargo run --release -p uwnr-engine --example engine_time -- [sizes...] [--direct | --f2] [--isa NAME] [--runs N]`.
 //! Prints milliseconds per image (best of the runs) and GFLOP/s against the kernel MAC count.
 //! With `--layers`, also the best time of every layer of the network at each size (the
 //! [`LayerBench`] shapes), to see where a forward pass spends its time.
@@ -38,6 +38,7 @@ fn main() {
     while let Some(a) = it.next() {
         match a.as_str() {
             "--direct" => opts.algo = ConvAlgo::Direct,
+            "--f2" => opts.algo = ConvAlgo::WinogradF2,
             "--layers" => layers = true,
             "--isa" => {
                 let name = it.next().map(String::as_str).unwrap_or("");

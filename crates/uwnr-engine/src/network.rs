@@ -35,6 +35,11 @@ pub enum ConvAlgo {
     Auto,
     /// Direct convolution everywhere.
     Direct,
+    /// Winograd F(2x2, 3x3) where `Auto` uses F(4x4, 3x3): transformed weights 16/9 of the
+    /// kernel's size instead of 4x, 2.25x fewer multiplies than direct instead of 4x. Slower
+    /// than `Auto` at every size on the machine the engine was tuned on (see the README);
+    /// kept for comparison elsewhere.
+    WinogradF2,
 }
 
 /// Build-time choices of the engine.
@@ -76,8 +81,8 @@ impl Conv3 {
     ) -> Self {
         if order.is_none() && Narrow::applies(cout) {
             Self::Narrow(Narrow::new(opts.isa, weight, bias, cout, cin, 3, act))
-        } else if opts.algo == ConvAlgo::Auto && Winograd::worthwhile(cin, cout) {
-            let tile = if std::env::var_os("WINO_F2").is_some() && cin >= 256 {
+        } else if opts.algo != ConvAlgo::Direct && Winograd::worthwhile(cin, cout) {
+            let tile = if opts.algo == ConvAlgo::WinogradF2 {
                 WinoTile::F2
             } else {
                 WinoTile::F4

@@ -29,7 +29,10 @@ fn input(channels: usize, h: usize, w: usize, seed: u64) -> Planar {
 fn all_options() -> Vec<EngineOptions> {
     Isa::supported()
         .into_iter()
-        .flat_map(|isa| [ConvAlgo::Auto, ConvAlgo::Direct].map(|algo| EngineOptions { isa, algo }))
+        .flat_map(|isa| {
+            [ConvAlgo::Auto, ConvAlgo::Direct, ConvAlgo::WinogradF2]
+                .map(|algo| EngineOptions { isa, algo })
+        })
         .collect()
 }
 
