@@ -132,7 +132,7 @@ impl Feature {
 /// Buffers a [`Pool`] keeps at most.
 const MAX_POOLED: usize = 16;
 /// Bytes a [`Pool`] keeps at most.
-const MAX_POOLED_BYTES: usize = 128 << 20;
+const MAX_POOLED_BYTES: usize = 64 << 20;
 
 /// Buffers kept between forward passes, so that a render reuses memory it has already
 /// touched instead of faulting in fresh pages for every feature map.

@@ -54,7 +54,7 @@ fn main() {
             }
             let raw = Image::filled(w, h, 6, 0.0);
             for (sum, &s) in strengths.iter_mut().zip(&STRENGTHS) {
-                let out = finish_with(&raw, &a, &depth, &water, None, s).unwrap();
+                let out = finish_with(raw.clone(), a.clone(), &depth, &water, None, s).unwrap();
                 score(sum, &out, &under);
             }
         }

@@ -302,12 +302,13 @@ pub(crate) fn render_with(
                 Ok(light_field_for_with(im, w, h, LightFieldMap::Absolute)?)
             })?;
             let raw = run(generator, variant, &[clean, &lf, &a], opts)?;
+            drop(lf);
             let reference_depth = if opts.relative_depth {
                 None
             } else {
                 Some(REFERENCE_DEPTH)
             };
-            finish(&raw, &a, depth, water, reference_depth)
+            finish(raw, a, depth, water, reference_depth)
         }
     }
 }
@@ -529,7 +530,11 @@ fn render_tiled(
     let guard = RECEPTIVE_RADIUS.min(opts.overlap.saturating_sub(MIN_RAMP) / 2);
     let cout = generator.channels().1;
     let mut acc = vec![0.0f32; cout * h * w];
-    let mut weight = vec![0.0f32; h * w];
+    // The tiles form a grid and each one's weight is a product of a row and a column ramp, so
+    // a pixel's total weight is (sum of the row ramps over it) x (sum of the column ramps):
+    // two vectors instead of a plane.
+    let mut weight_y = vec![0.0f32; h];
+    let mut weight_x = vec![0.0f32; w];
     for (i, j) in cores() {
         let (y0, y1) = tile_extent(by[i], by[i + 1], half, hp);
         let (x0, x1) = tile_extent(bx[j], bx[j + 1], half, wp);
@@ -547,6 +552,16 @@ fn render_tiled(
         let y = generator.forward_with_means(x, &means)?.data;
         let wy = axis_weights(&by, i, y0, y1, half, guard);
         let wx = axis_weights(&bx, j, x0, x1, half, guard);
+        if j == 0 {
+            for (ty, &wyv) in wy.iter().enumerate().take(h.min(y1) - y0) {
+                weight_y[y0 + ty] += wyv;
+            }
+        }
+        if i == 0 {
+            for (tx, &wxv) in wx.iter().enumerate().take(w.min(x1) - x0) {
+                weight_x[x0 + tx] += wxv;
+            }
+        }
         for (ty, &wyv) in wy.iter().enumerate().take(h.min(y1) - y0) {
             let row = y0 + ty;
             for (tx, &wxv) in wx.iter().enumerate().take(w.min(x1) - x0) {
@@ -555,7 +570,6 @@ fn render_tiled(
                     continue;
                 }
                 let col = x0 + tx;
-                weight[row * w + col] += wt;
                 for c in 0..cout {
                     acc[(c * h + row) * w + col] += wt * y[(c * region.h + ty) * region.w + tx];
                 }
@@ -563,9 +577,14 @@ fn render_tiled(
         }
     }
     for c in 0..cout {
-        for (a, &wt) in acc[c * h * w..(c + 1) * h * w].iter_mut().zip(&weight) {
-            // Every pixel lies in the core of some tile, where that tile's weight is >= 1/16.
-            *a /= wt;
+        for (row, wyv) in acc[c * h * w..(c + 1) * h * w]
+            .chunks_exact_mut(w)
+            .zip(&weight_y)
+        {
+            for (a, wxv) in row.iter_mut().zip(&weight_x) {
+                // Every pixel lies in the core of some tile, where that tile's weight is >= 1/16.
+                *a /= wyv * wxv;
+            }
         }
     }
     Ok(Image::from_planar(w, h, cout, acc)?)

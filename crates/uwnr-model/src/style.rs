@@ -206,8 +206,9 @@ pub fn colour_transfer(clean: &Image, water: &Water) -> Result<Image> {
 /// the reference's coarse distribution of light and colour (brighter above, darker at the
 /// bottom, bluer on one side). Both maps must come from the same geometry (at render time the
 /// 256x256 map resized to the image; in training the crop's own).
+/// `transfer` is taken and changed in place.
 pub fn retain_light_field(
-    transfer: &Image,
+    transfer: Image,
     transfer_lf: &Image,
     reference_lf: &Image,
 ) -> Result<Image> {
@@ -224,7 +225,7 @@ pub fn retain_light_field(
         }
     }
     let range = uwnr_core::lightfield::absolute_log10_range() as f32;
-    let mut out = transfer.clone();
+    let mut out = transfer;
     for c in 0..3 {
         let (t, r) = (transfer_lf.plane(c), reference_lf.plane(c));
         for (i, v) in out.plane_mut(c).iter_mut().enumerate() {
@@ -249,7 +250,7 @@ pub fn anchor(
 ) -> Result<Image> {
     let transfer = colour_transfer(clean, water)?;
     let transfer_lf = light_field(&transfer)?;
-    retain_light_field(&transfer, &transfer_lf, reference_lf)
+    retain_light_field(transfer, &transfer_lf, reference_lf)
 }
 
 /// Normalised Gaussian kernel `exp(-x^2 / (2 sigma^2))`, `x = -radius..=radius`.
@@ -368,10 +369,11 @@ fn mean_depth(d: &[f32]) -> f32 {
 /// The anchored variant's output stage on one image (module doc): `raw` is the network's
 /// 6-plane output, `anchor` the colour transfer, `depth` the 1-plane depth map, all one size.
 /// `reference_depth` is the reference's mean depth ([`REFERENCE_DEPTH`] for an absolute map);
-/// `None` takes it to be the image's own (a relative map).
+/// `None` takes it to be the image's own (a relative map). `raw` and `anchor` are taken and
+/// reused (the output is written over the anchor), so a large photo holds no extra copies.
 pub fn finish(
-    raw: &Image,
-    anchor: &Image,
+    raw: Image,
+    anchor: Image,
     depth: &Image,
     water: &Water,
     reference_depth: Option<f32>,
@@ -388,8 +390,8 @@ pub fn finish(
 
 /// [`finish`] with the within-image strength `local` given (measurements of other settings).
 pub fn finish_with(
-    raw: &Image,
-    anchor: &Image,
+    raw: Image,
+    anchor: Image,
     depth: &Image,
     water: &Water,
     reference_depth: Option<f32>,
@@ -403,19 +405,19 @@ pub fn finish_with(
             got: raw.size(),
         });
     }
-    let mut fields = raw.clone();
+    let mut fields = raw;
     for c in 0..ANCHORED_OUT_CHANNELS {
         blur_plane(fields.plane_mut(c), w, h, SMOOTH_SIGMA);
     }
     let d = depth.plane(0);
     let m = mean_depth(d);
     let reference_depth = reference_depth.unwrap_or(m);
-    let mut out = Image::filled(w, h, 3, 0.0);
+    let mut out = anchor;
     for c in 0..3 {
-        let (a, g, o) = (anchor.plane(c), fields.plane(c), fields.plane(c + 3));
+        let (g, o) = (fields.plane(c), fields.plane(c + 3));
         let (veil, beta) = (water.veil[c], water.beta[c]);
         for (i, v) in out.plane_mut(c).iter_mut().enumerate() {
-            let n = a[i] * (1.0 + g[i]) + o[i];
+            let n = *v * (1.0 + g[i]) + o[i];
             *v = veil + (n - veil) * depth_factor(beta, d[i], m, reference_depth, local);
         }
     }

@@ -40,7 +40,7 @@ fn the_output_stage_in_burn_matches_the_plain_one() {
     let clean = image(w, h, 3, 1.0, 0.0);
     let a = colour_transfer(&clean, &water).unwrap();
     let depth = image(w, h, 1, 0.2, 3.0);
-    let want = finish(&raw, &a, &depth, &water, None).unwrap();
+    let want = finish(raw.clone(), a.clone(), &depth, &water, None).unwrap();
     let t = |img: &Image| {
         Tensor::<4>::from_data(
             TensorData::new(img.data().to_vec(), [1, img.channels(), h, w]),
