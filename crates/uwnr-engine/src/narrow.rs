@@ -176,6 +176,8 @@ unsafe fn row_avx512<const N: usize, const P: usize>(job: &Row<'_>, out: &mut [f
 }
 
 /// `P` consecutive pixels from `x0` of an AVX-512 row.
+// `acc[p][n]` is indexed across both dimensions in the inner loops.
+#[allow(clippy::needless_range_loop)]
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
 unsafe fn pixels_avx512<const N: usize, const P: usize>(job: &Row<'_>, x0: usize, out: &mut [f32]) {
@@ -231,6 +233,8 @@ unsafe fn row_avx2<const N: usize, const P: usize>(job: &Row<'_>, out: &mut [f32
 }
 
 /// `P` consecutive pixels from `x0` of an AVX2 row.
+// `acc[p][n]` is indexed across both dimensions in the inner loops.
+#[allow(clippy::needless_range_loop)]
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 unsafe fn pixels_avx2<const N: usize, const P: usize>(job: &Row<'_>, x0: usize, out: &mut [f32]) {

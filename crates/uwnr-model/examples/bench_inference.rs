@@ -57,7 +57,9 @@ fn fma_chains_avx512(b: f32) -> f32 {
             *a = _mm512_fmadd_ps(*a, b, c);
         }
     }
-    let sum = acc.iter().fold(_mm512_set1_ps(0.0), |s, &a| _mm512_add_ps(s, a));
+    let sum = acc
+        .iter()
+        .fold(_mm512_set1_ps(0.0), |s, &a| _mm512_add_ps(s, a));
     _mm512_reduce_add_ps(sum)
 }
 
@@ -73,7 +75,9 @@ fn fma_chains_avx2(b: f32) -> f32 {
             *a = _mm256_fmadd_ps(*a, b, c);
         }
     }
-    let sum = acc.iter().fold(_mm256_set1_ps(0.0), |s, &a| _mm256_add_ps(s, a));
+    let sum = acc
+        .iter()
+        .fold(_mm256_set1_ps(0.0), |s, &a| _mm256_add_ps(s, a));
     let mut out = [0.0f32; 8];
     // SAFETY: out holds 8 floats.
     unsafe { _mm256_storeu_ps(out.as_mut_ptr(), sum) };
