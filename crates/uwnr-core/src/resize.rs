@@ -197,6 +197,105 @@ pub fn resize_bilinear(img: &Image, width: usize, height: usize) -> Result<Image
     Image::from_planar(width, height, img.channels(), out)
 }
 
+/// [`resize_bilinear`] of one image, evaluated on demand over any set of output rows and
+/// columns: the values are exactly those `resize_bilinear` computes (the same taps and the same
+/// order of operations), without the whole output in memory. A render of a large photo samples
+/// the 256x256 light field this way, one tile at a time.
+#[derive(Debug)]
+pub struct LazyResize<'a> {
+    img: &'a Image,
+    width: usize,
+    height: usize,
+    /// `None` when the size is unchanged (the values are the image's own).
+    taps: Option<(Vec<(usize, Vec<f32>)>, Vec<(usize, Vec<f32>)>)>,
+}
+
+impl<'a> LazyResize<'a> {
+    /// `img` resized to `width x height`.
+    pub fn new(img: &'a Image, width: usize, height: usize) -> Result<Self> {
+        let (in_w, in_h) = img.size();
+        check_sizes(in_w, in_h, width, height)?;
+        let taps = ((in_w, in_h) != (width, height)).then(|| {
+            let to_f32 = |taps: Vec<Taps>| -> Vec<(usize, Vec<f32>)> {
+                taps.into_iter()
+                    .map(|t| (t.start, t.weights.iter().map(|&w| w as f32).collect()))
+                    .collect()
+            };
+            (
+                to_f32(triangle_taps(in_w, width)),
+                to_f32(triangle_taps(in_h, height)),
+            )
+        });
+        Ok(Self {
+            img,
+            width,
+            height,
+            taps,
+        })
+    }
+
+    /// Output size `(width, height)`.
+    #[must_use]
+    pub fn size(&self) -> (usize, usize) {
+        (self.width, self.height)
+    }
+
+    /// Channels.
+    #[must_use]
+    pub fn channels(&self) -> usize {
+        self.img.channels()
+    }
+
+    /// Appends the values of channel `c` at output rows `rows` x columns `cols` (any indices
+    /// below the output size), row-major, to `out`.
+    ///
+    /// # Panics
+    /// If `c` or an index is out of range.
+    pub fn sample(&self, c: usize, rows: &[usize], cols: &[usize], out: &mut Vec<f32>) {
+        let plane = self.img.plane(c);
+        let in_w = self.img.size().0;
+        let Some((htaps, vtaps)) = &self.taps else {
+            for &y in rows {
+                let row = &plane[y * in_w..(y + 1) * in_w];
+                out.extend(cols.iter().map(|&x| row[x]));
+            }
+            return;
+        };
+        // The source rows the requested rows read, through the horizontal pass.
+        let lo = rows.iter().map(|&y| vtaps[y].0).min().unwrap_or(0);
+        let hi = rows
+            .iter()
+            .map(|&y| vtaps[y].0 + vtaps[y].1.len())
+            .max()
+            .unwrap_or(0);
+        let n = cols.len();
+        let mut tmp = vec![0.0_f32; (hi - lo) * n];
+        for (r, dst) in (lo..hi).zip(tmp.chunks_exact_mut(n.max(1))) {
+            let src = &plane[r * in_w..(r + 1) * in_w];
+            for (d, &x) in dst.iter_mut().zip(cols) {
+                let (start, w) = &htaps[x];
+                *d = src[*start..*start + w.len()]
+                    .iter()
+                    .zip(w)
+                    .map(|(s, k)| s * k)
+                    .sum();
+            }
+        }
+        for &y in rows {
+            let (start, w) = &vtaps[y];
+            let at = out.len();
+            out.resize(at + n, 0.0);
+            let dst = &mut out[at..];
+            for (i, &k) in w.iter().enumerate() {
+                let row = &tmp[(start + i - lo) * n..(start + i - lo + 1) * n];
+                for (d, &s) in dst.iter_mut().zip(row) {
+                    *d += s * k;
+                }
+            }
+        }
+    }
+}
+
 /// Pillow's fixed-point coefficients (`normalize_coeffs_8bpc`): round half away from zero.
 fn pil_fixed_taps(taps: &[Taps]) -> Vec<(usize, Vec<i32>)> {
     let one = f64::from(1_u32 << PIL_PRECISION_BITS);

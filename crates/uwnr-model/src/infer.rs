@@ -23,7 +23,7 @@
 use burn::tensor::{Device, Tensor, TensorData};
 use uwnr_core::Image;
 use uwnr_core::lightfield::{LightFieldMap, light_field_for_with};
-use uwnr_core::resize::resize_bilinear;
+use uwnr_core::resize::{LazyResize, resize_bilinear};
 use uwnr_engine::Planar;
 
 use crate::config::{LEVELS, SIZE_MULTIPLE};
@@ -261,34 +261,47 @@ pub(crate) fn render_with(
         }
         .into());
     }
-    let lf = if style.light_field.size() == clean.size() {
-        style.light_field.clone()
-    } else {
-        resize_bilinear(&style.light_field, w, h)?
-    };
-    for (what, im, expected) in [
-        ("clean image", clean, CLEAN_CHANNELS),
-        ("depth map", depth, DEPTH_CHANNELS),
-        ("light-field map", &lf, LIGHT_FIELD_CHANNELS),
+    // The light field at the clean image's size, sampled tile by tile as the network needs it
+    // rather than held whole (a 12 MP photo would hold 144 MB of it).
+    let lf = LazyResize::new(&style.light_field, w, h)?;
+    for (what, size, channels, expected) in [
+        (
+            "clean image",
+            clean.size(),
+            clean.channels(),
+            CLEAN_CHANNELS,
+        ),
+        ("depth map", depth.size(), depth.channels(), DEPTH_CHANNELS),
+        (
+            "light-field map",
+            lf.size(),
+            lf.channels(),
+            LIGHT_FIELD_CHANNELS,
+        ),
     ] {
-        if im.channels() != expected {
+        if channels != expected {
             return Err(ModelError::Channels {
                 what,
                 expected,
-                got: im.channels(),
+                got: channels,
             });
         }
-        if im.size() != clean.size() {
+        if size != clean.size() {
             return Err(ModelError::ImageSize {
                 what,
                 expected: clean.size(),
-                got: im.size(),
+                got: size,
             });
         }
     }
     match variant {
         Variant::Paper => {
-            let mut out = run(generator, variant, &[clean, depth, &lf], opts)?;
+            let sources = [
+                Source::Image(clean),
+                Source::Image(depth),
+                Source::Lazy(&lf),
+            ];
+            let mut out = run(generator, variant, &sources, opts)?;
             out.clamp01();
             Ok(out)
         }
@@ -298,11 +311,14 @@ pub(crate) fn render_with(
                     "the anchored model needs the reference's water (ReferenceStyle::new)".into(),
                 )
             })?;
-            let a = anchor(clean, water, &lf, |im| {
+            // Light-field retention reads the whole map once; the network then samples it.
+            let lf_full = resize_bilinear(&style.light_field, w, h)?;
+            let a = anchor(clean, water, &lf_full, |im| {
                 Ok(light_field_for_with(im, w, h, LightFieldMap::Absolute)?)
             })?;
-            let raw = run(generator, variant, &[clean, &lf, &a], opts)?;
-            drop(lf);
+            drop(lf_full);
+            let sources = [Source::Image(clean), Source::Lazy(&lf), Source::Image(&a)];
+            let raw = run(generator, variant, &sources, opts)?;
             let reference_depth = if opts.relative_depth {
                 None
             } else {
@@ -317,12 +333,12 @@ pub(crate) fn render_with(
 fn run(
     generator: &dyn Forward,
     variant: Variant,
-    sources: &[&Image],
+    sources: &[Source<'_>],
     opts: &RenderOptions,
 ) -> Result<Image> {
     let (cin, cout) = generator.channels();
     let (want_in, want_out) = variant.channels();
-    let given: usize = sources.iter().map(|s| s.channels()).sum();
+    let given: usize = sources.iter().map(Source::channels).sum();
     for (what, expected, got) in [
         ("generator input", want_in, cin),
         ("generator output", want_out, cout),
@@ -377,21 +393,57 @@ struct Rect {
     w: usize,
 }
 
+/// One input of the network, at the clean image's size.
+enum Source<'a> {
+    /// Held whole.
+    Image(&'a Image),
+    /// A resize evaluated per tile.
+    Lazy(&'a LazyResize<'a>),
+}
+
+impl Source<'_> {
+    fn channels(&self) -> usize {
+        match self {
+            Self::Image(im) => im.channels(),
+            Self::Lazy(r) => r.channels(),
+        }
+    }
+
+    fn size(&self) -> (usize, usize) {
+        match self {
+            Self::Image(im) => im.size(),
+            Self::Lazy(r) => r.size(),
+        }
+    }
+}
+
 /// The network input over `region` of the padded image: the sources' planes stacked,
 /// `[channels, region.h, region.w]`.
-fn input_tensor(sources: &[&Image], region: Rect) -> Planar {
-    let channels: usize = sources.iter().map(|s| s.channels()).sum();
+fn input_tensor(sources: &[Source<'_>], region: Rect) -> Planar {
+    let channels: usize = sources.iter().map(Source::channels).sum();
     let mut data = Vec::with_capacity(channels * region.h * region.w);
-    for im in sources {
-        let (w, h) = im.size();
+    for src in sources {
+        let (w, h) = src.size();
         let cols: Vec<usize> = (region.x0..region.x0 + region.w)
             .map(|x| reflect(x, w))
             .collect();
-        for c in 0..im.channels() {
-            let plane = im.plane(c);
-            for y in region.y0..region.y0 + region.h {
-                let row = &plane[reflect(y, h) * w..][..w];
-                data.extend(cols.iter().map(|&x| row[x]));
+        match src {
+            Source::Image(im) => {
+                for c in 0..im.channels() {
+                    let plane = im.plane(c);
+                    for y in region.y0..region.y0 + region.h {
+                        let row = &plane[reflect(y, h) * w..][..w];
+                        data.extend(cols.iter().map(|&x| row[x]));
+                    }
+                }
+            }
+            Source::Lazy(r) => {
+                let rows: Vec<usize> = (region.y0..region.y0 + region.h)
+                    .map(|y| reflect(y, h))
+                    .collect();
+                for c in 0..r.channels() {
+                    r.sample(c, &rows, &cols, &mut data);
+                }
             }
         }
     }
@@ -478,7 +530,7 @@ fn axis_weights(
 
 fn render_tiled(
     generator: &dyn Forward,
-    sources: &[&Image],
+    sources: &[Source<'_>],
     (hp, wp): (usize, usize),
     (h, w): (usize, usize),
     opts: &RenderOptions,
