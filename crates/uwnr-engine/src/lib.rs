@@ -2,9 +2,11 @@
 //! "Underwater Light Field Retention: Neural Rendering for Underwater Imaging", CVPR-W 2022).
 //!
 //! Feature maps are channels-last with a zero border; stride-1 3x3 convolutions run as
-//! Winograd F(4x4, 3x3) ([`winograd`](crate::winograd)), the stride-2 and narrow ones as direct
-//! convolutions without im2col ([`conv`](crate::conv)), all on register-blocked micro-kernels
-//! chosen at run time ([`Isa`]: AVX-512F, AVX2+FMA or portable Rust). The block's `conk1`,
+//! Winograd F(4x4, 3x3) ([`winograd`](crate::winograd); F(2x2, 3x3) as an option), the stride-2
+//! ones and those with under 16 channels as direct convolutions without im2col
+//! ([`conv`](crate::conv)), all on register-blocked micro-kernels chosen at run time ([`Isa`]:
+//! AVX-512F, AVX2+FMA or portable Rust); the output layer's few channels are per-pixel dot
+//! products ([`narrow`](crate::narrow)). The block's `conk1`,
 //! `conk3` and identity branches are folded into one 3x3 kernel; bias, activation and the
 //! PixelShuffle channel order are fused into the convolutions. Every operation has a plain
 //! reference implementation in [`reference`] that the kernels are tested against.

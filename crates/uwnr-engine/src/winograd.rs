@@ -6,6 +6,10 @@
 //! direct convolutions. The input and output transforms work on whole channel runs of the
 //! channels-last map and vectorise over channels; the bias and activation are applied after
 //! the output transform. Interpolation points 0, +-1, +-2, +-1/2 (the matrices below).
+//! F(2x2, 3x3) (points 0, +-1: 16 products per 2x2 tile) runs on the same code with 4x4 input
+//! tiles. Transforms read tiles inside the map where they lie and write `V` and the output
+//! pixels in place; a chunk of tiles is sized so that large transformed weights stream from
+//! memory once per layer.
 
 use rayon::prelude::*;
 
