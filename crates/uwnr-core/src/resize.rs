@@ -197,6 +197,9 @@ pub fn resize_bilinear(img: &Image, width: usize, height: usize) -> Result<Image
     Image::from_planar(width, height, img.channels(), out)
 }
 
+/// The f32 taps of one axis: per output position, the first input index and the weights.
+type AxisTaps = Vec<(usize, Vec<f32>)>;
+
 /// [`resize_bilinear`] of one image, evaluated on demand over any set of output rows and
 /// columns: the values are exactly those `resize_bilinear` computes (the same taps and the same
 /// order of operations), without the whole output in memory. A render of a large photo samples
@@ -207,7 +210,7 @@ pub struct LazyResize<'a> {
     width: usize,
     height: usize,
     /// `None` when the size is unchanged (the values are the image's own).
-    taps: Option<(Vec<(usize, Vec<f32>)>, Vec<(usize, Vec<f32>)>)>,
+    taps: Option<(AxisTaps, AxisTaps)>,
 }
 
 impl<'a> LazyResize<'a> {
@@ -216,7 +219,7 @@ impl<'a> LazyResize<'a> {
         let (in_w, in_h) = img.size();
         check_sizes(in_w, in_h, width, height)?;
         let taps = ((in_w, in_h) != (width, height)).then(|| {
-            let to_f32 = |taps: Vec<Taps>| -> Vec<(usize, Vec<f32>)> {
+            let to_f32 = |taps: Vec<Taps>| -> AxisTaps {
                 taps.into_iter()
                     .map(|t| (t.start, t.weights.iter().map(|&w| w as f32).collect()))
                     .collect()
