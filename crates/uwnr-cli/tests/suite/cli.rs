@@ -205,6 +205,23 @@ fn lightfield_and_depth_commands_write_maps() {
 }
 
 #[test]
+fn a_closed_stdout_stops_quietly_without_a_panic() {
+    // The reader closes the pipe before uwnr prints (it first loads the bundled model), as
+    // `uwnr info | head -0` does: the print fails with EPIPE.
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_uwnr"))
+        .arg("info")
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("running uwnr");
+    drop(child.stdout.take());
+    let o = child.wait_with_output().expect("waiting for uwnr");
+    let err = stderr(&o);
+    assert!(!err.contains("panicked"), "{err}");
+    assert_eq!(o.status.code(), Some(141), "{err}");
+}
+
+#[test]
 fn info_reports_the_bundled_model_and_the_variant() {
     let o = uwnr(&["info"]);
     assert!(o.status.success(), "{}", stderr(&o));
