@@ -324,20 +324,8 @@ fn row_portable<const N: usize, const P: usize>(job: &Row<'_>, out: &mut [f32]) 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::reference;
+    use crate::reference::{self, test_values as values};
     use crate::tensor::Planar;
-
-    fn values(seed: u64, n: usize, scale: f32) -> Vec<f32> {
-        let mut s = seed;
-        (0..n)
-            .map(|_| {
-                s = s
-                    .wrapping_mul(6_364_136_223_846_793_005)
-                    .wrapping_add(1_442_695_040_888_963_407);
-                ((s >> 40) as f32 / (1u64 << 24) as f32 - 0.5) * 2.0 * scale
-            })
-            .collect()
-    }
 
     #[test]
     fn every_isa_matches_the_reference() {
