@@ -23,6 +23,7 @@ use std::sync::{Arc, Mutex, OnceLock};
 use rayon::prelude::*;
 
 use crate::error::{CoreError, Result};
+use crate::index::reflect101;
 use crate::resize::U8Image;
 
 /// Kernel radius in sigmas for 8-bit images (OpenCV: `sigma * (depth == CV_8U ? 3 : 4) * 2 + 1`).
@@ -86,19 +87,6 @@ pub fn cv_gaussian_kernel_fixed(sigma: f64) -> Vec<u32> {
     }
     fixed[half] = (1_i64 << KERNEL_BITS) - 2 * sum;
     fixed.into_iter().map(|v| v.max(0) as u32).collect()
-}
-
-/// OpenCV's `borderInterpolate(p, len, BORDER_REFLECT_101)`, repeated until inside.
-#[must_use]
-pub fn reflect101(p: i64, len: usize) -> usize {
-    let len = len as i64;
-    if len == 1 {
-        return 0;
-    }
-    // Reflection about 0 and len - 1 repeats with period 2 (len - 1).
-    let period = 2 * (len - 1);
-    let p = p.rem_euclid(period);
-    (if p >= len { period - p } else { p }) as usize
 }
 
 /// Folded taps per output position, keyed by (sigma bits, length).
@@ -246,14 +234,6 @@ mod tests {
             let rev: Vec<u32> = k.iter().rev().copied().collect();
             assert_eq!(k, rev);
         }
-    }
-
-    #[test]
-    fn reflect101_repeats() {
-        // dcb|abcd|cba, repeated: positions -7..=10 of a length-4 row.
-        let got: Vec<usize> = (-7..11).map(|p| reflect101(p, 4)).collect();
-        assert_eq!(got, [1, 0, 1, 2, 3, 2, 1, 0, 1, 2, 3, 2, 1, 0, 1, 2, 3, 2]);
-        assert_eq!(reflect101(-5, 1), 0);
     }
 
     #[test]

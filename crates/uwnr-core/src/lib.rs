@@ -6,6 +6,7 @@ pub mod dark_channel;
 pub mod error;
 pub mod gaussian;
 pub mod image;
+pub mod index;
 pub mod io;
 pub mod lightfield;
 pub mod resize;

@@ -4,7 +4,8 @@
 //! The network needs sizes that are multiples of 16 (four stride-2 levels). The input is
 //! padded up by reflection, not zeros: a zero border is an edge the convolutions respond to and
 //! it would bias the channel-attention means (the global average pools), while a mirrored
-//! border continues the local statistics. The output is cropped back and clamped to [0, 1].
+//! border continues the local statistics (reflect-101, as NumPy's `reflect`:
+//! [`uwnr_core::index::reflect101`]). The output is cropped back and clamped to [0, 1].
 //!
 //! Large images are rendered in tiles. Everything in the network is local except channel
 //! attention, which pools over the whole image; to keep that global, tiling runs in passes:
@@ -22,6 +23,7 @@
 
 use burn::tensor::{Device, Tensor, TensorData};
 use uwnr_core::Image;
+use uwnr_core::index::reflect101;
 use uwnr_core::lightfield::{LightFieldMap, light_field_for_with};
 use uwnr_core::resize::{LazyResize, resize_bilinear};
 use uwnr_engine::Planar;
@@ -373,17 +375,6 @@ fn padded(n: usize) -> usize {
     n.div_ceil(SIZE_MULTIPLE) * SIZE_MULTIPLE
 }
 
-/// Index into `[0, n)` of position `i` of the image mirrored about its first and last
-/// pixels (NumPy's `reflect`), repeated for paddings wider than the image.
-fn reflect(i: usize, n: usize) -> usize {
-    if n == 1 {
-        return 0;
-    }
-    let period = 2 * (n - 1);
-    let m = i % period;
-    if m < n { m } else { period - m }
-}
-
 /// A rectangle of the padded image.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 struct Rect {
@@ -425,21 +416,21 @@ fn input_tensor(sources: &[Source<'_>], region: Rect) -> Planar {
     for src in sources {
         let (w, h) = src.size();
         let cols: Vec<usize> = (region.x0..region.x0 + region.w)
-            .map(|x| reflect(x, w))
+            .map(|x| reflect101(x as i64, w))
             .collect();
         match src {
             Source::Image(im) => {
                 for c in 0..im.channels() {
                     let plane = im.plane(c);
                     for y in region.y0..region.y0 + region.h {
-                        let row = &plane[reflect(y, h) * w..][..w];
+                        let row = &plane[reflect101(y as i64, h) * w..][..w];
                         data.extend(cols.iter().map(|&x| row[x]));
                     }
                 }
             }
             Source::Lazy(r) => {
                 let rows: Vec<usize> = (region.y0..region.y0 + region.h)
-                    .map(|y| reflect(y, h))
+                    .map(|y| reflect101(y as i64, h))
                     .collect();
                 for c in 0..r.channels() {
                     r.sample(c, &rows, &cols, &mut data);
@@ -645,13 +636,6 @@ fn render_tiled(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn reflect_mirrors_without_repeating_the_edge() {
-        let idx: Vec<usize> = (0..10).map(|i| reflect(i, 4)).collect();
-        assert_eq!(idx, [0, 1, 2, 3, 2, 1, 0, 1, 2, 3]);
-        assert_eq!(reflect(5, 1), 0);
-    }
 
     #[test]
     fn cores_partition_on_the_grid() {
