@@ -5,6 +5,21 @@
 
 use crate::error::{CoreError, Result};
 
+/// The largest 8-bit code, as the scale between codes and [0, 1] values.
+const U8_CODE_MAX: f32 = 255.0;
+
+/// The 8-bit code of a value in [0, 1]: `(v * 255 + 0.5).clamp(0, 255) as u8`, rounding half up
+/// and clamping, as torchvision's `save_image` does. Every 8-bit file uwnr writes holds these
+/// codes (NaN gives 0).
+///
+/// Not the rule of every reference port: UIQM quantises with `round_ties_even` in f64 and the
+/// light-field map truncates (`np.uint8`), each as the code it reproduces.
+#[must_use]
+#[inline]
+pub fn quantise_u8(v: f32) -> u8 {
+    (v * U8_CODE_MAX + 0.5).clamp(0.0, U8_CODE_MAX) as u8
+}
+
 /// A planar f32 image: `channels` planes of `height x width`, row-major, values in [0, 1]
 /// (RGB images have 3 channels in R, G, B order; grey maps have 1).
 #[derive(Clone, Debug, PartialEq)]
@@ -175,6 +190,40 @@ impl Image {
         })
     }
 
+    /// The planar (CHW) 8-bit codes of the image, each value quantised by [`quantise_u8`].
+    #[must_use]
+    pub fn to_u8_codes(&self) -> Vec<u8> {
+        self.data.iter().map(|&v| quantise_u8(v)).collect()
+    }
+
+    /// An image from planar (CHW) 8-bit codes, each read as `code / 255`. Fails when
+    /// `codes.len() != channels * height * width`.
+    pub fn from_u8_codes(
+        width: usize,
+        height: usize,
+        channels: usize,
+        codes: &[u8],
+    ) -> Result<Self> {
+        let data = codes.iter().map(|&v| f32::from(v) / U8_CODE_MAX).collect();
+        Self::from_planar(width, height, channels, data)
+    }
+
+    /// The image rounded to the 8-bit grid, `quantise_u8(v) / 255` per value: what a saved
+    /// 8-bit PNG holds once it is read back.
+    #[must_use]
+    pub fn quantised(&self) -> Self {
+        Self {
+            width: self.width,
+            height: self.height,
+            channels: self.channels,
+            data: self
+                .data
+                .iter()
+                .map(|&v| f32::from(quantise_u8(v)) / U8_CODE_MAX)
+                .collect(),
+        }
+    }
+
     /// Clamps every value to [0, 1] in place.
     pub fn clamp01(&mut self) {
         for v in &mut self.data {
@@ -220,6 +269,34 @@ mod tests {
         assert_eq!(im.get(1, 0, 0), 1.0);
         assert_eq!(im.get(0, 1, 2), 15.0);
         assert_eq!(im.to_interleaved(), hwc);
+    }
+
+    #[test]
+    fn quantise_u8_rounds_half_up_and_clamps() {
+        // 0.1 * 255 = 25.5 rounds up; 0.5 * 255 = 127.5 rounds up.
+        assert_eq!(quantise_u8(0.1), 26);
+        assert_eq!(quantise_u8(0.5), 128);
+        assert_eq!(quantise_u8(0.0), 0);
+        assert_eq!(quantise_u8(1.0), 255);
+        assert_eq!(quantise_u8(1.2), 255);
+        assert_eq!(quantise_u8(-0.1), 0);
+        assert_eq!(quantise_u8(f32::NAN), 0);
+        for code in 0..=255_u8 {
+            assert_eq!(quantise_u8(f32::from(code) / 255.0), code);
+        }
+    }
+
+    #[test]
+    fn u8_codes_round_trip() {
+        let im = Image::from_planar(2, 1, 2, vec![0.1, 0.5, 1.2, -0.1]).unwrap();
+        let codes = im.to_u8_codes();
+        assert_eq!(codes, [26, 128, 255, 0]);
+        let back = Image::from_u8_codes(2, 1, 2, &codes).unwrap();
+        assert_eq!(back.data(), &[26.0 / 255.0, 128.0 / 255.0, 1.0, 0.0]);
+        assert_eq!(back, im.quantised());
+        // Quantising twice changes nothing.
+        assert_eq!(back.quantised(), back);
+        assert!(Image::from_u8_codes(2, 2, 2, &codes).is_err());
     }
 
     #[test]

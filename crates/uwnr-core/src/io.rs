@@ -10,7 +10,7 @@
 //! - RGB to grey is ITU-R 601 luma exactly as PIL's `convert("L")`
 //!   (`(19595 R + 38470 G + 7471 B + 0x8000) >> 16` on 8-bit data);
 //! - f32 to u8 rounds half up and clamps, `(v * 255 + 0.5).clamp(0, 255) as u8`
-//!   (torchvision `save_image`);
+//!   (torchvision `save_image`; [`quantise_u8`]);
 //! - the EXIF orientation of JPEG, TIFF and WebP files is applied.
 //!
 //! Decoding checks the dimensions in the header against [`DecodeLimits`] before any pixel buffer
@@ -29,7 +29,7 @@ use image::{
 };
 
 use crate::error::{CoreError, Result};
-use crate::image::Image;
+use crate::image::{Image, quantise_u8};
 
 /// Default [`DecodeLimits::max_pixels`]: 250 megapixels (about 3 GB as planar f32 RGB).
 pub const DEFAULT_MAX_PIXELS: u64 = 250_000_000;
@@ -157,8 +157,14 @@ pub fn save_gray16(path: &Path, img: &Image) -> Result<()> {
 pub fn save_gray(path: &Path, img: &Image) -> Result<()> {
     let format = output_format(path)?;
     let (w, h) = checked_size(path, img, 1)?;
-    let bytes: Vec<u8> = img.plane(0).iter().map(|&v| quantise_u8(v)).collect();
-    let encoded = encode(path, format, &bytes, w, h, ExtendedColorType::L8)?;
+    let encoded = encode(
+        path,
+        format,
+        &img.to_u8_codes(),
+        w,
+        h,
+        ExtendedColorType::L8,
+    )?;
     write_atomic(path, |out| out.write_all(&encoded))
 }
 
@@ -516,10 +522,6 @@ fn to_planar(decoded: &DynamicImage, target: Target) -> Result<Image> {
             Image::from_planar(w, h, out_channels, data)
         }
     }
-}
-
-fn quantise_u8(v: f32) -> u8 {
-    (v * 255.0 + 0.5).clamp(0.0, 255.0) as u8
 }
 
 fn quantise_u16(v: f32) -> u16 {

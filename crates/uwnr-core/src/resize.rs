@@ -21,7 +21,7 @@
 use rayon::prelude::*;
 
 use crate::error::{CoreError, Result};
-use crate::image::Image;
+use crate::image::{Image, quantise_u8};
 
 /// Support (half-width) of the triangle filter, in input pixels at scale 1 (PIL's
 /// `struct filter BILINEAR = {bilinear_filter, 1.0}`).
@@ -63,14 +63,15 @@ impl U8Image {
         })
     }
 
-    /// Quantises an [`Image`] with the round-half-up rule `(v * 255 + 0.5).clamp(0, 255)`.
+    /// Quantises an [`Image`] with the round-half-up rule `(v * 255 + 0.5).clamp(0, 255)`
+    /// ([`quantise_u8`]).
     #[must_use]
     pub fn from_image(img: &Image) -> Self {
         let (n, cn) = (img.width() * img.height(), img.channels());
         let mut data = vec![0_u8; n * cn];
         for c in 0..cn {
             for (i, &v) in img.plane(c).iter().enumerate() {
-                data[i * cn + c] = (v * 255.0 + 0.5).clamp(0.0, 255.0) as u8;
+                data[i * cn + c] = quantise_u8(v);
             }
         }
         Self {

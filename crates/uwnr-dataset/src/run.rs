@@ -26,7 +26,7 @@ use std::time::Instant;
 
 use uwnr_core::Image;
 use uwnr_core::io::{DecodeLimits, load_rgb, save_gray16, save_rgb};
-use uwnr_core::resize::{U8Image, resize_bilinear};
+use uwnr_core::resize::resize_bilinear;
 use uwnr_depth::{DepthSource, PreparedDepth};
 use uwnr_model::ReferenceStyle;
 
@@ -628,7 +628,7 @@ impl Context<'_> {
 /// fixed size) and quantised to 8 bits, so what is rendered is exactly what `clean/` stores.
 pub fn fit(img: &Image, size: Size) -> uwnr_core::Result<Image> {
     let sized = match size {
-        Size::Native => img.clone(),
+        Size::Native => return Ok(img.quantised()),
         Size::Fixed { width, height } => {
             let (w, h) = (img.width() as f64, img.height() as f64);
             let scale = (width as f64 / w).max(height as f64 / h);
@@ -642,7 +642,7 @@ pub fn fit(img: &Image, size: Size) -> uwnr_core::Result<Image> {
             scaled.crop((sw - width) / 2, (sh - height) / 2, width, height)?
         }
     };
-    U8Image::from_image(&sized).to_image()
+    Ok(sized.quantised())
 }
 
 #[cfg(test)]
