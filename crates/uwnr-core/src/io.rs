@@ -14,8 +14,9 @@
 //! - the EXIF orientation of JPEG, TIFF and WebP files is applied.
 //!
 //! Decoding checks the dimensions in the header against [`DecodeLimits`] before any pixel buffer
-//! is allocated. Writing goes to a temporary file in the target directory that is renamed into
-//! place, so an interrupted or failed write leaves no partial file.
+//! is allocated. Writing goes to a temporary file in the target directory that is synced to disk
+//! and renamed into place ([`write_atomic`]), so an interrupted or failed write, or a crash, leaves
+//! no partial file.
 
 use std::fs::{self, OpenOptions};
 use std::io::{BufWriter, Cursor, Write};
@@ -104,7 +105,7 @@ pub fn save_rgb(path: &Path, img: &Image) -> Result<()> {
     let format = output_format(path)?;
     let (w, h) = checked_size(path, img, 3)?;
     let encoded = encode(path, format, &to_rgb8(img), w, h, ExtendedColorType::Rgb8)?;
-    write_atomic(path, |out| out.write_all(&encoded))
+    write_atomic_bytes(path, &encoded)
 }
 
 /// Saves a 3-channel image as a 16-bit RGB PNG (`(v * 65535 + 0.5).clamp(0, 65535)`). The
@@ -130,7 +131,7 @@ pub fn save_rgb16(path: &Path, img: &Image) -> Result<()> {
         h,
         ExtendedColorType::Rgb16,
     )?;
-    write_atomic(path, |out| out.write_all(&encoded))
+    write_atomic_bytes(path, &encoded)
 }
 
 /// Saves a 1-channel image as a 16-bit grey PNG (`(v * 65535 + 0.5).clamp(0, 65535)`), the form
@@ -150,7 +151,7 @@ pub fn save_gray16(path: &Path, img: &Image) -> Result<()> {
         .flat_map(|&v| quantise_u16(v).to_ne_bytes())
         .collect();
     let encoded = encode(path, ImageFormat::Png, &bytes, w, h, ExtendedColorType::L16)?;
-    write_atomic(path, |out| out.write_all(&encoded))
+    write_atomic_bytes(path, &encoded)
 }
 
 /// Saves a 1-channel image as 8-bit grey PNG or JPEG, chosen by the extension.
@@ -165,7 +166,7 @@ pub fn save_gray(path: &Path, img: &Image) -> Result<()> {
         h,
         ExtendedColorType::L8,
     )?;
-    write_atomic(path, |out| out.write_all(&encoded))
+    write_atomic_bytes(path, &encoded)
 }
 
 /// Interleaved 8-bit RGB of an image, rounding half up and clamping:
@@ -219,8 +220,19 @@ pub fn stays_inside(rel: &Path) -> bool {
     normal
 }
 
-/// Writes a file atomically: `write` fills a temporary file in the same directory, which is then
-/// renamed to `path`. On any failure the temporary file is removed and `path` is left as it was.
+/// Writes a file atomically and durably, the one rule every file uwnr writes follows:
+///
+/// 1. a temporary file `.NAME.PID-N.tmp` is created in `path`'s directory (a rename is only
+///    atomic within one file system; the name is what `uwnr-dataset` recognises as a leftover);
+/// 2. `write` fills it through a buffer, which is flushed, and the file is `sync_all`ed, so its
+///    bytes are on disk before its name is;
+/// 3. it is renamed to `path`, replacing any earlier file;
+/// 4. on unix the directory is then fsynced, best effort, so that the rename itself survives a
+///    power cut (a failure there is ignored: some file systems cannot sync a directory, and the
+///    file is complete under one name or the other either way).
+///
+/// A reader therefore sees the old file or the whole new one, never a part. On any failure up to
+/// the rename the temporary file is removed and `path` is left as it was.
 pub fn write_atomic(
     path: &Path,
     write: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
@@ -251,8 +263,9 @@ pub fn write_atomic(
     let written = (|| {
         let mut out = BufWriter::new(file);
         write(&mut out)?;
-        out.into_inner().map_err(|e| e.into_error())?;
-        Ok(())
+        let file = out.into_inner().map_err(|e| e.into_error())?;
+        file.sync_all()
+        // The file is closed here, before the rename.
     })();
     let result = written.and_then(|()| fs::rename(&tmp, path));
     if let Err(e) = result {
@@ -260,7 +273,24 @@ pub fn write_atomic(
         let _ = fs::remove_file(&tmp);
         return Err(io_err(e));
     }
+    sync_dir(dir);
     Ok(())
+}
+
+/// [`write_atomic`] of a buffer already in memory.
+pub fn write_atomic_bytes(path: &Path, bytes: &[u8]) -> Result<()> {
+    write_atomic(path, |out| out.write_all(bytes))
+}
+
+/// Fsyncs a directory so that a rename into it is durable. Best effort: errors are ignored (see
+/// [`write_atomic`]). Directories cannot be opened as files on Windows, where this does nothing.
+fn sync_dir(dir: &Path) {
+    #[cfg(unix)]
+    if let Ok(d) = fs::File::open(dir) {
+        let _ = d.sync_all();
+    }
+    #[cfg(not(unix))]
+    let _ = dir;
 }
 
 fn read_file(path: &Path) -> Result<Vec<u8>> {

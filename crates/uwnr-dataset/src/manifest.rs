@@ -334,7 +334,7 @@ pub fn write_manifest(path: &Path, records: &mut [Record]) -> Result<()> {
     for r in records.iter() {
         text.push_str(&r.to_line());
     }
-    uwnr_core::io::write_atomic(path, |w| w.write_all(text.as_bytes()))?;
+    uwnr_core::io::write_atomic_bytes(path, text.as_bytes())?;
     Ok(())
 }
 
@@ -398,7 +398,7 @@ pub fn write_failures(path: &Path, failures: &[Failure]) -> Result<()> {
         text.push_str(&serde_json::to_string(f).unwrap_or_default());
         text.push('\n');
     }
-    uwnr_core::io::write_atomic(path, |w| w.write_all(text.as_bytes()))?;
+    uwnr_core::io::write_atomic_bytes(path, text.as_bytes())?;
     Ok(())
 }
 

@@ -206,7 +206,7 @@ pub fn merge(out: &Path, sources: &[PathBuf], gallery: bool) -> Result<MergeRepo
                 std::fs::create_dir_all(parent).map_err(io_err(parent))?;
             }
             let bytes = std::fs::read(&src).map_err(io_err(&src))?;
-            uwnr_core::io::write_atomic(&dst, |w| w.write_all(&bytes))?;
+            uwnr_core::io::write_atomic_bytes(&dst, &bytes)?;
             report.copied += 1;
         }
     }

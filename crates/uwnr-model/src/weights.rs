@@ -802,32 +802,13 @@ impl ToF32Vec for TensorData {
     }
 }
 
-/// Writes `bytes` to `path` through a temporary file in the same directory and a rename.
+/// Writes `bytes` to `path` by uwnr-core's atomic, durable rule ([`uwnr_core::io::write_atomic`]:
+/// a synced temporary file in the same directory renamed into place).
 fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    let io_err = |p: &Path| {
-        let p = p.to_path_buf();
-        move |source| ModelError::Io { path: p, source }
-    };
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    let file_name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "weights".into());
-    let tmp = dir.join(format!(".{file_name}.{}.tmp", std::process::id()));
-    let result = (|| {
-        let mut f = std::fs::File::create(&tmp).map_err(io_err(&tmp))?;
-        f.write_all(bytes).map_err(io_err(&tmp))?;
-        f.sync_all().map_err(io_err(&tmp))?;
-        std::fs::rename(&tmp, path).map_err(io_err(path))
-    })();
-    if result.is_err() {
-        // Best effort: do not leave a partial temporary file behind.
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result
+    uwnr_core::io::write_atomic_bytes(path, bytes).map_err(|e| match e {
+        uwnr_core::CoreError::Io { path, source } => ModelError::Io { path, source },
+        other => ModelError::Core(other),
+    })
 }
 
 /// A temporary file removed on drop (for checkpoints given as bytes).

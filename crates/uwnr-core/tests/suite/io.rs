@@ -7,7 +7,7 @@ use image::{DynamicImage, ImageBuffer, ImageEncoder, ImageFormat, Luma, LumaA, R
 use tempfile::TempDir;
 use uwnr_core::io::{
     DecodeLimits, is_image_path, load_gray, load_rgb, load_rgb_from_memory, save_gray, save_rgb,
-    save_rgb16, to_rgb8, write_atomic,
+    save_rgb16, to_rgb8, write_atomic, write_atomic_bytes,
 };
 use uwnr_core::{CoreError, Image};
 
@@ -354,6 +354,24 @@ fn write_atomic_replaces_the_file() {
     write_atomic(&path, |w| w.write_all(b"new")).unwrap();
     assert_eq!(std::fs::read(&path).unwrap(), b"new");
     assert_eq!(files_in(dir.path()), ["a.txt"]);
+}
+
+#[test]
+fn write_atomic_bytes_writes_a_new_file_and_refuses_a_folder() {
+    let dir = TempDir::new().unwrap();
+    let path = dir.path().join("b.bin");
+    write_atomic_bytes(&path, &[1, 2, 3]).unwrap();
+    assert_eq!(std::fs::read(&path).unwrap(), [1, 2, 3]);
+    // An existing folder cannot be replaced by a file: the error names the target and the
+    // temporary file is gone.
+    let sub = dir.path().join("sub");
+    std::fs::create_dir(&sub).unwrap();
+    std::fs::write(sub.join("keep"), b"x").unwrap();
+    assert!(matches!(
+        write_atomic_bytes(&sub, b"y"),
+        Err(CoreError::Io { path, .. }) if path == sub
+    ));
+    assert_eq!(files_in(dir.path()), ["b.bin", "sub"]);
 }
 
 #[test]
