@@ -48,6 +48,7 @@
 
 use serde::{Deserialize, Serialize};
 use serde_json::json;
+use uwnr_core::resize::fit_within;
 
 use crate::background::{BackgroundPick, SUID_MIN_REGION_FRACTION, quadtree_background};
 use crate::common::{
@@ -57,7 +58,7 @@ use crate::error::{BaselineError, Result};
 use crate::jerlov::{
     JERLOV_TYPES, UWCNN_BACKGROUND_DEPTH_M, UWCNN_BACKGROUND_GAIN, UWCNN_DEPTH_SCALE_M,
 };
-use crate::uisa::{REFERENCE_MAX_SIDE, fit_within};
+use crate::uisa::REFERENCE_MAX_SIDE;
 use crate::{RenderInput, Rendered};
 
 /// Position of the last Jerlov type (9C) on the manifold; type I is 0.

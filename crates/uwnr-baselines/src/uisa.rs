@@ -32,7 +32,7 @@ use serde::{Deserialize, Serialize};
 use serde_json::json;
 use uwnr_core::Image;
 use uwnr_core::dark_channel::dark_channel;
-use uwnr_core::resize::resize_bilinear;
+use uwnr_core::resize::fit_within;
 
 use crate::background::{BackgroundPick, SUID_MIN_REGION_FRACTION, quadtree_background};
 use crate::common::{check_image, check_in, checked_depth, form_image, median, round6, round6_3};
@@ -148,19 +148,6 @@ pub fn attenuation_ratios(ratio: AttenuationRatio, b_light: [f64; 3]) -> [f64; 3
         AttenuationRatio::Wavelength => b[c] / b[0],
         AttenuationRatio::WavelengthAndBackground => (b[c] * b_light[0]) / (b[0] * b_light[c]),
     })
-}
-
-/// Downscales `img` so its longer side is at most `max_side` (aspect kept); never upscales.
-pub(crate) fn fit_within(img: &Image, max_side: usize) -> Result<Image> {
-    let (w, h) = img.size();
-    let long = w.max(h);
-    if long <= max_side {
-        return Ok(img.clone());
-    }
-    let scale = max_side as f64 / long as f64;
-    let nw = ((w as f64 * scale).round() as usize).max(1);
-    let nh = ((h as f64 * scale).round() as usize).max(1);
-    Ok(resize_bilinear(img, nw, nh)?)
 }
 
 /// The reference's red-channel-prior transmission `t_ref` (1 channel), clamped to `[floor, 1]`.
@@ -286,14 +273,5 @@ mod tests {
             "{:?}",
             t.data()
         );
-    }
-
-    #[test]
-    fn fit_within_only_shrinks() {
-        let img = Image::filled(1000, 500, 3, 0.5);
-        let small = fit_within(&img, 512).unwrap();
-        assert_eq!(small.size(), (512, 256));
-        let tiny = Image::filled(100, 50, 3, 0.5);
-        assert_eq!(fit_within(&tiny, 512).unwrap().size(), (100, 50));
     }
 }

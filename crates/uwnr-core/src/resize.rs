@@ -5,6 +5,7 @@
 //!   whose support is widened by the scale factor when shrinking (antialiased), as PIL's
 //!   `BILINEAR`; computed in f32/f64 without quantisation. This is the resize uwnr uses
 //!   everywhere (depth maps to the image size, light-field maps to the clean image's size, ...).
+//!   [`fit_within`] uses it to shrink an image so its longer side is at most a bound.
 //! - [`pil_resize_bilinear_u8`]: Pillow's `Image.resize((w, h), BILINEAR)` on 8-bit images
 //!   (`libImaging/Resample.c`: `precompute_coeffs`, `normalize_coeffs_8bpc` with
 //!   `PRECISION_BITS = 32 - 8 - 2`, horizontal pass then vertical pass, each rounded to u8).
@@ -196,6 +197,35 @@ pub fn resize_bilinear(img: &Image, width: usize, height: usize) -> Result<Image
                 });
         });
     Image::from_planar(width, height, img.channels(), out)
+}
+
+/// The size of a `(width, height)` image shrunk so that its longer side is at most `max_side`,
+/// aspect kept: both sides are scaled by `max_side / longer side` (in f64) and rounded to the
+/// nearest integer, at least 1. A size that already fits is returned unchanged (never enlarged);
+/// a `max_side` of 0 counts as 1.
+///
+/// For example `(1000, 500)` in 256 gives `(256, 128)` and `(1000, 1)` in 10 gives `(10, 1)`.
+#[must_use]
+pub fn fit_within_dims((width, height): (usize, usize), max_side: usize) -> (usize, usize) {
+    let max_side = max_side.max(1);
+    let long = width.max(height);
+    if long <= max_side {
+        return (width, height);
+    }
+    let scale = max_side as f64 / long as f64;
+    let side = |v: usize| ((v as f64 * scale).round() as usize).clamp(1, max_side);
+    (side(width), side(height))
+}
+
+/// `img` shrunk with [`resize_bilinear`] to [`fit_within_dims`]`(img.size(), max_side)`, so
+/// that its longer side is at most `max_side` with the aspect kept; an image that already fits
+/// is returned as it is (a copy), never enlarged.
+pub fn fit_within(img: &Image, max_side: usize) -> Result<Image> {
+    let (width, height) = fit_within_dims(img.size(), max_side);
+    if (width, height) == img.size() {
+        return Ok(img.clone());
+    }
+    resize_bilinear(img, width, height)
 }
 
 /// The f32 taps of one axis: per output position, the first input index and the weights.
@@ -561,5 +591,37 @@ fn cv_resize_area_fast2(src: &U8Image, dw: usize, dh: usize) -> U8Image {
         height: dh,
         channels: cn,
         data: out,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fit_within_dims_shrinks_the_longer_side_and_keeps_the_aspect() {
+        assert_eq!(fit_within_dims((1000, 500), 256), (256, 128));
+        assert_eq!(fit_within_dims((1000, 500), 512), (512, 256));
+        assert_eq!(fit_within_dims((300, 1200), 100), (25, 100));
+        // 640 * 100 / 900 = 71.1 and 900 -> 100; 3 * 100 / 200 = 1.5 rounds to 2.
+        assert_eq!(fit_within_dims((640, 900), 100), (71, 100));
+        assert_eq!(fit_within_dims((200, 3), 100), (100, 2));
+        // A side that would round to 0 keeps one pixel.
+        assert_eq!(fit_within_dims((1000, 1), 10), (10, 1));
+        // Sizes that fit are kept, never enlarged.
+        assert_eq!(fit_within_dims((100, 50), 512), (100, 50));
+        assert_eq!(fit_within_dims((512, 512), 512), (512, 512));
+        assert_eq!(fit_within_dims((0, 0), 8), (0, 0));
+        assert_eq!(fit_within_dims((4, 2), 0), (1, 1));
+    }
+
+    #[test]
+    fn fit_within_resizes_bilinearly_and_only_shrinks() {
+        let data: Vec<f32> = (0..3 * 40 * 20).map(|v| (v % 7) as f32 / 7.0).collect();
+        let img = Image::from_planar(40, 20, 3, data).unwrap();
+        let small = fit_within(&img, 10).unwrap();
+        assert_eq!(small, resize_bilinear(&img, 10, 5).unwrap());
+        assert_eq!(fit_within(&img, 40).unwrap(), img);
+        assert_eq!(fit_within(&img, 100).unwrap(), img);
     }
 }
