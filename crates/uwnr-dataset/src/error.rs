@@ -33,6 +33,9 @@ pub enum DatasetError {
     /// An image operation failed.
     #[error(transparent)]
     Core(#[from] uwnr_core::CoreError),
+    /// Drawing the preview failed.
+    #[error("drawing the preview: {0}")]
+    Figure(#[from] uwnr_figures::FigureError),
 }
 
 /// Result with [`DatasetError`].

@@ -1,6 +1,8 @@
 //! A look at a finished dataset: `preview.png`, a contact sheet of the first clean images each
-//! followed by its renders, and `index.html`, a static page of side-by-side thumbnails (clean |
-//! underwater) linking to the full images, readable from the folder with no server.
+//! followed by its renders, under column headers (`clean`, `underwater 1 (METHOD)`, ...) and
+//! with each row labelled with the clean image's name, drawn by `uwnr-figures`; and
+//! `index.html`, a static page of side-by-side thumbnails (clean | underwater) linking to the
+//! full images, readable from the folder with no server.
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -9,6 +11,7 @@ use std::path::Path;
 use uwnr_core::Image;
 use uwnr_core::io::{DecodeLimits, load_rgb, save_rgb};
 use uwnr_core::sheet::contact_sheet;
+use uwnr_figures::{Sheet, SheetRow, draw_sheet};
 
 use crate::error::{DatasetError, Result, io_err};
 use crate::manifest::Record;
@@ -25,6 +28,9 @@ const PREVIEW_ROWS: usize = 8;
 const PREVIEW_RENDERS: usize = 6;
 /// Height of a contact-sheet thumbnail.
 const PREVIEW_THUMB: usize = 160;
+/// Longest row label on the contact sheet, in characters (longer names are shortened with an
+/// ellipsis so that one long file name does not widen the label column for every row).
+const PREVIEW_LABEL_CHARS: usize = 24;
 /// Pairs shown on the gallery page (the page stays light for datasets of any size).
 const GALLERY_PAIRS: usize = 240;
 /// Height of a gallery thumbnail.
@@ -47,19 +53,32 @@ pub fn write(out: &Path, records: &[Record]) -> Result<()> {
         let key = *first_index.entry(r.clean_source.clone()).or_insert(r.index);
         rows.entry(key).or_default().push(r);
     }
-    let mut images: Vec<Vec<Image>> = Vec::new();
-    for pairs in rows.values().take(PREVIEW_ROWS) {
+    let shown_rows: Vec<&[&Record]> = rows
+        .values()
+        .take(PREVIEW_ROWS)
+        .map(|pairs| &pairs[..pairs.len().min(PREVIEW_RENDERS)])
+        .collect();
+    let mut images: Vec<(String, Vec<Image>)> = Vec::with_capacity(shown_rows.len());
+    for pairs in &shown_rows {
         let mut row = vec![load(&pairs[0].clean)?];
-        for p in pairs.iter().take(PREVIEW_RENDERS) {
+        for p in *pairs {
             row.push(load(&p.underwater)?);
         }
-        images.push(row);
+        images.push((row_label(&pairs[0].id), row));
     }
-    let refs: Vec<Vec<&Image>> = images.iter().map(|r| r.iter().collect()).collect();
-    save_rgb(
-        &out.join(PREVIEW_FILE),
-        &contact_sheet(&refs, PREVIEW_THUMB)?,
-    )?;
+    let sheet = Sheet {
+        title: None,
+        columns: preview_columns(&shown_rows),
+        rows: images
+            .iter()
+            .map(|(label, row)| SheetRow {
+                label: Some(label.clone()),
+                images: row.iter().collect(),
+            })
+            .collect(),
+        thumb: PREVIEW_THUMB,
+    };
+    save_rgb(&out.join(PREVIEW_FILE), &draw_sheet(&sheet)?)?;
 
     // Gallery thumbnails and page.
     let dir = out.join(GALLERY_DIR);
@@ -113,8 +132,46 @@ pub fn write(out: &Path, records: &[Record]) -> Result<()> {
         p = PREVIEW_FILE,
     );
     let path = out.join(INDEX_FILE);
-    uwnr_core::io::write_atomic(&path, |w| w.write_all(page.as_bytes()))?;
+    uwnr_core::io::write_atomic_bytes(&path, page.as_bytes())?;
     Ok(())
+}
+
+/// The contact sheet's column headers: `clean`, then one per render column, `underwater N
+/// (METHOD)`, or just `underwater` when each clean image has one render (without the method
+/// when the column mixes methods, as a merged folder may).
+fn preview_columns(rows: &[&[&Record]]) -> Vec<String> {
+    let renders = rows.iter().map(|r| r.len()).max().unwrap_or(0);
+    let mut columns = vec!["clean".to_string()];
+    for j in 0..renders {
+        let mut methods = rows
+            .iter()
+            .filter_map(|r| r.get(j))
+            .map(|r| r.method.as_str());
+        let first = methods.next();
+        let method = first.filter(|m| methods.all(|x| x == *m));
+        let name = if renders == 1 {
+            "underwater".to_string()
+        } else {
+            format!("underwater {}", j + 1)
+        };
+        columns.push(match method {
+            Some(m) => format!("{name} ({m})"),
+            None => name,
+        });
+    }
+    columns
+}
+
+/// The row label of a clean image: its name in the dataset (the pair id `NAME_k` without `_k`),
+/// shortened to [`PREVIEW_LABEL_CHARS`] characters.
+fn row_label(pair_id: &str) -> String {
+    let name = pair_id.rsplit_once('_').map_or(pair_id, |(name, _)| name);
+    if name.chars().count() <= PREVIEW_LABEL_CHARS {
+        name.to_string()
+    } else {
+        let head: String = name.chars().take(PREVIEW_LABEL_CHARS - 1).collect();
+        format!("{head}\u{2026}")
+    }
 }
 
 /// Escapes text for HTML.
@@ -127,10 +184,88 @@ fn esc(s: &str) -> String {
 
 #[cfg(test)]
 mod tests {
-    use super::esc;
+    use super::*;
+    use uwnr_figures::SHEET_GAP;
+
+    fn record(name: &str, k: usize, index: u64, method: &str) -> Record {
+        let id = format!("{name}_{k}");
+        Record {
+            id: id.clone(),
+            index,
+            clean_source: format!("in/{name}.png"),
+            reference_source: None,
+            method: method.into(),
+            params: serde_json::Value::Null,
+            seed: 0,
+            width: 24,
+            height: 16,
+            underwater: format!("underwater/{id}.png"),
+            clean: format!("clean/{id}.png"),
+            depth: None,
+            lightfield: None,
+        }
+    }
 
     #[test]
     fn escapes_markup() {
         assert_eq!(esc("a<b>&\"c\""), "a&lt;b&gt;&amp;&quot;c&quot;");
+    }
+
+    #[test]
+    fn columns_name_the_method_and_rows_the_image() {
+        let (a0, a1, b0) = (
+            record("a", 0, 0, "jerlov"),
+            record("a", 1, 1, "jerlov"),
+            record("b", 0, 2, "reinhard"),
+        );
+        let rows: [&[&Record]; 2] = [&[&a0, &a1], &[&b0]];
+        assert_eq!(
+            preview_columns(&rows),
+            ["clean", "underwater 1", "underwater 2 (jerlov)"]
+        );
+        let one: [&[&Record]; 1] = [&[&b0]];
+        assert_eq!(preview_columns(&one), ["clean", "underwater (reinhard)"]);
+        assert_eq!(row_label("img_07_3"), "img_07");
+        let long = row_label(&format!("{}_0", "x".repeat(40)));
+        assert_eq!(long.chars().count(), PREVIEW_LABEL_CHARS);
+        assert!(long.ends_with('\u{2026}'));
+    }
+
+    #[test]
+    fn preview_has_a_header_band_and_a_label_column() {
+        let tmp = tempfile::tempdir().unwrap();
+        let out = tmp.path();
+        for dir in ["clean", "underwater"] {
+            std::fs::create_dir_all(out.join(dir)).unwrap();
+        }
+        let records = vec![
+            record("a", 0, 0, "jerlov"),
+            record("a", 1, 1, "jerlov"),
+            record("b", 0, 2, "jerlov"),
+            record("b", 1, 3, "jerlov"),
+        ];
+        // 24x16 images: thumbnails 240 wide at the sheet's 160 px height.
+        for r in &records {
+            save_rgb(&out.join(&r.clean), &Image::filled(24, 16, 3, 0.8)).unwrap();
+            save_rgb(&out.join(&r.underwater), &Image::filled(24, 16, 3, 0.3)).unwrap();
+        }
+        write(out, &records).unwrap();
+        let preview = load_rgb(&out.join(PREVIEW_FILE), &DecodeLimits::default()).unwrap();
+        let (w, h) = preview.size();
+        // Without headers: the gap above, then two rows of a thumbnail and a gap.
+        let bare_h = SHEET_GAP + 2 * (PREVIEW_THUMB + SHEET_GAP);
+        let header = h - bare_h;
+        assert!((12..40).contains(&header), "header band of {header} px");
+        // Three 240 px columns and a label column, with nothing wider than needed.
+        let bare_w = SHEET_GAP + 3 * (240 + SHEET_GAP);
+        let label = w - bare_w;
+        assert!((8..80).contains(&label), "label column of {label} px");
+        // The header band holds text (dark pixels) over the columns.
+        let dark = (0..header)
+            .flat_map(|y| (label..w).map(move |x| (y, x)))
+            .filter(|&(y, x)| (0..3).all(|c| preview.get(c, y, x) < 0.3))
+            .count();
+        assert!(dark > 20, "{dark} dark pixels in the header band");
+        assert!(out.join(INDEX_FILE).is_file());
     }
 }
