@@ -481,19 +481,20 @@ pub enum LightFieldLossArg {
     Released,
 }
 
+/// The arguments every trainer shares (`uwnr train`, `uwnr enhance train`).
 #[derive(Debug, Args)]
-pub struct TrainArgs {
+pub struct RunArgs {
     /// Training folders, each with `underwater/` + `clean/` (or `raw-890/` + `reference-890/`)
-    /// matched by file name, and optionally `depth/`.
+    /// matched by file name (`uwnr train` also reads an optional `depth/`).
     #[arg(long, required = true, num_args = 1.., value_name = "DIR")]
     pub data: Vec<PathBuf>,
     /// Validation folder (same layout), scored at native resolution (PSNR/SSIM).
     #[arg(long, value_name = "DIR")]
     pub val: Option<PathBuf>,
-    /// Run folder: config, logs, curves, checkpoints.
+    /// Run folder: config, logs, curves, contact sheets, checkpoints.
     #[arg(long, value_name = "RUN_DIR")]
     pub run: PathBuf,
-    /// Training config (JSON); fields not given keep the paper's defaults.
+    /// Training config (JSON); fields not given keep their defaults.
     #[arg(long, value_name = "FILE")]
     pub config: Option<PathBuf>,
     /// Continue the run in --run from its last checkpoint (its config.json is used).
@@ -512,7 +513,7 @@ pub struct TrainArgs {
     /// Override: batch size.
     #[arg(long)]
     pub batch_size: Option<usize>,
-    /// Override: crop side (a multiple of 16).
+    /// Override: crop side.
     #[arg(long)]
     pub crop: Option<usize>,
     /// Override: seed.
@@ -521,6 +522,18 @@ pub struct TrainArgs {
     /// Override: learning rate.
     #[arg(long)]
     pub lr: Option<f64>,
+    /// Override: validate every N epochs.
+    #[arg(long, value_name = "N")]
+    pub val_every: Option<usize>,
+    /// Stop (with a checkpoint) after this many steps in this session.
+    #[arg(long, value_name = "N")]
+    pub max_steps: Option<usize>,
+}
+
+#[derive(Debug, Args)]
+pub struct TrainArgs {
+    #[command(flatten)]
+    pub common: RunArgs,
     /// Override: base width of the generator (64 = the paper's network).
     #[arg(long)]
     pub width: Option<usize>,
@@ -534,12 +547,6 @@ pub struct TrainArgs {
     /// Override: enable the colour-cast augmentation with its default ranges.
     #[arg(long)]
     pub color_cast: bool,
-    /// Override: validate every N epochs.
-    #[arg(long, value_name = "N")]
-    pub val_every: Option<usize>,
-    /// Stop (with a checkpoint) after this many steps in this session.
-    #[arg(long, value_name = "N")]
-    pub max_steps: Option<usize>,
     /// PSNR reference lines for the validation curve (e.g. baselines), comma-separated.
     #[arg(long, value_name = "DB,...", value_delimiter = ',')]
     pub val_refs: Vec<f64>,
@@ -600,47 +607,8 @@ pub enum EnhanceAction {
 
 #[derive(Debug, Args)]
 pub struct EnhanceTrainArgs {
-    /// Training folders, each with `underwater/` + `clean/` (or `raw-890/` + `reference-890/`)
-    /// matched by file name.
-    #[arg(long, required = true, num_args = 1.., value_name = "DIR")]
-    pub data: Vec<PathBuf>,
-    /// Validation folder (same layout), scored at native resolution (PSNR/SSIM).
-    #[arg(long, value_name = "DIR")]
-    pub val: Option<PathBuf>,
-    /// Run folder: config, logs, curves, checkpoints (enhancer.safetensors in each).
-    #[arg(long, value_name = "RUN_DIR")]
-    pub run: PathBuf,
-    /// Training config (JSON); fields not given keep their defaults.
-    #[arg(long, value_name = "FILE")]
-    pub config: Option<PathBuf>,
-    /// Continue the run in --run from its last checkpoint (its config.json is used).
-    #[arg(long)]
-    pub resume: bool,
-    /// VGG19 weights (safetensors, torchvision keys `features.N.weight`) for the perceptual loss;
-    /// without them a 1 - SSIM structure term stands in.
-    #[arg(long, value_name = "FILE")]
-    pub vgg19: Option<PathBuf>,
-    /// Override: epochs.
-    #[arg(long)]
-    pub epochs: Option<usize>,
-    /// Override: batch size.
-    #[arg(long)]
-    pub batch_size: Option<usize>,
-    /// Override: crop side.
-    #[arg(long)]
-    pub crop: Option<usize>,
-    /// Override: seed.
-    #[arg(long)]
-    pub seed: Option<u64>,
-    /// Override: learning rate.
-    #[arg(long)]
-    pub lr: Option<f64>,
-    /// Stop (with a checkpoint) after this many steps in this session.
-    #[arg(long, value_name = "N")]
-    pub max_steps: Option<usize>,
-    /// Compute device.
-    #[arg(long, value_enum, default_value_t = DeviceArg::Flex)]
-    pub device: DeviceArg,
+    #[command(flatten)]
+    pub common: RunArgs,
 }
 
 #[derive(Debug, Args)]

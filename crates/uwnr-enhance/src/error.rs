@@ -34,25 +34,13 @@ pub enum EnhanceError {
     /// A training config file could not be read as one.
     #[error("{path:?}: not a valid enhancer training config: {reason}")]
     ConfigFile { path: PathBuf, reason: String },
-    /// `--resume` was given a config that differs from the run's own.
-    #[error(
-        "{path:?}: the run was started with another config ({} differ{}); a resumed run keeps its config.json",
-        fields.join(", "),
-        if fields.len() == 1 { "s" } else { "" }
-    )]
-    ConfigChanged { path: PathBuf, fields: Vec<String> },
-    /// The loss became NaN or infinite.
-    #[error("loss is not finite at step {step}: mse {mse}, perceptual {perceptual}, total {total}")]
-    NonFiniteLoss {
-        step: usize,
-        mse: f64,
-        perceptual: f64,
-        total: f64,
-    },
     /// A pair of images cannot be scored or trained on.
     #[error("{path:?}: {reason}")]
     BadPair { path: PathBuf, reason: String },
-    /// Data, checkpoints, logs and VGG19 weights (the machinery shared with UWNR training).
+    /// Data, run folder, checkpoints, logs and the loop ([`uwnr_run`]).
+    #[error(transparent)]
+    Run(#[from] uwnr_run::RunError),
+    /// VGG19 weights for the perceptual term (uwnr-train's loss).
     #[error(transparent)]
     Train(#[from] uwnr_train::TrainError),
     /// A metric could not be computed.

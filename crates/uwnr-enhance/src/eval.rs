@@ -16,12 +16,11 @@ use std::path::Path;
 use burn::tensor::Device;
 use serde::Serialize;
 use uwnr_core::io::{DecodeLimits, save_rgb};
-use uwnr_core::resize::resize_bilinear;
+use uwnr_core::resize::{fit_within_dims, resize_bilinear};
 use uwnr_metrics::{DEFAULT_DATA_RANGE, psnr, ssim, uciqe, uiqm};
-use uwnr_train::TrainError;
-use uwnr_train::data::discover_pairs;
+use uwnr_run::RunError;
+use uwnr_run::pairs::{SizeMismatch, decode_pair, discover_pairs};
 
-use crate::data::{decode_pair, quantised};
 use crate::error::{EnhanceError, Result};
 use crate::model::ShallowUwnet;
 
@@ -81,7 +80,7 @@ pub fn evaluate_dir(
     }
     let found = discover_pairs(dir, None)?;
     if let Some(out) = save_to {
-        std::fs::create_dir_all(out).map_err(|source| TrainError::Io {
+        std::fs::create_dir_all(out).map_err(|source| RunError::Io {
             path: out.to_path_buf(),
             source,
         })?;
@@ -89,10 +88,11 @@ pub fn evaluate_dir(
     let mut taken = HashSet::new();
     let mut per_image = Vec::with_capacity(found.pairs.len());
     for p in &found.pairs {
-        let (input, target, _) = decode_pair(p, limits, false)?;
+        let pair = decode_pair(p, limits, SizeMismatch::Refuse)?;
+        let (input, target) = (pair.underwater, pair.clean);
         let (input, target, downscaled_from) = match max_side {
             Some(n) if input.width().max(input.height()) > n => {
-                let (w, h) = fit(input.size(), n);
+                let (w, h) = fit_within_dims(input.size(), n);
                 (
                     resize_bilinear(&input, w, h)?,
                     resize_bilinear(&target, w, h)?,
@@ -105,7 +105,7 @@ pub fn evaluate_dir(
             Some(net) => crate::infer::enhance(net, &input, device)?,
             None => input,
         };
-        let out = quantised(&out)?;
+        let out = out.quantised();
         let score = |e: uwnr_metrics::MetricsError| EnhanceError::BadPair {
             path: p.underwater.clone(),
             reason: format!("scoring: {e}"),
@@ -139,13 +139,6 @@ pub fn evaluate_dir(
     })
 }
 
-/// The size of a `(w, h)` image scaled so its longer side is `max_side`.
-fn fit((w, h): (usize, usize), max_side: usize) -> (usize, usize) {
-    let s = max_side as f64 / w.max(h) as f64;
-    let scale = |v: usize| ((v as f64 * s).round() as usize).clamp(1, max_side);
-    (scale(w), scale(h))
-}
-
 /// `STEM.png`, or `STEM-2.png`, ... when that name is taken.
 fn output_name(file: &str, taken: &mut HashSet<String>) -> String {
     let stem = Path::new(file)
@@ -168,13 +161,6 @@ fn output_name(file: &str, taken: &mut HashSet<String>) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn fitting_keeps_the_aspect() {
-        assert_eq!(fit((1000, 500), 256), (256, 128));
-        assert_eq!(fit((300, 1200), 100), (25, 100));
-        assert_eq!(fit((1000, 1), 10), (10, 1));
-    }
 
     #[test]
     fn output_names_are_unique() {

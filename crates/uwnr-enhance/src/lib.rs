@@ -15,6 +15,5 @@ pub use error::{EnhanceError, Result};
 pub use eval::{EvalReport, ImageScore, evaluate_dir};
 pub use infer::enhance;
 pub use model::{Dropout, ShallowUwnet, ShallowUwnetConfig};
-pub use train::{
-    EnhanceEvent, EnhanceTrainConfig, EnhanceTrainOptions, EnhanceTrainSummary, train,
-};
+pub use train::{EnhanceTrainConfig, EnhanceTrainOptions, EnhanceTrainSummary, train};
+pub use uwnr_run::Event;

@@ -9,13 +9,13 @@ use serde::{Deserialize, Serialize};
 use serde_json::json;
 use uwnr_core::Image;
 use uwnr_core::io::{DecodeLimits, load_rgb, write_atomic};
-use uwnr_core::resize::resize_bilinear;
+use uwnr_core::resize::fit_within;
 use uwnr_dataset::{Renderer, RunOptions, Size, Spec};
 use uwnr_depth::DepthSource;
 use uwnr_enhance::eval::{EvalReport, evaluate_dir};
-use uwnr_enhance::train::{EnhanceEvent, EnhanceTrainConfig, EnhanceTrainOptions, train};
+use uwnr_enhance::train::{EnhanceTrainConfig, EnhanceTrainOptions, train};
 use uwnr_enhance::{ShallowUwnet, enhance};
-use uwnr_train::data::discover_pairs;
+use uwnr_run::pairs::discover_pairs;
 
 use crate::error::{ExperimentError, Result};
 use crate::report::{Results, Row, RowKind, Scores, TestSet, write_markdown};
@@ -89,7 +89,7 @@ pub enum Event<'a> {
     /// Progress of a training set's rendering.
     Dataset(&'a str, uwnr_dataset::Event<'a>),
     /// Progress of a training run.
-    Train(&'a str, EnhanceEvent<'a>),
+    Train(&'a str, uwnr_run::Event<'a>),
     /// A row was scored on a test set.
     Scored {
         /// The row.
@@ -254,7 +254,7 @@ fn train_row(
         spec.device.clone(),
     );
     // A row killed before its first checkpoint left a folder that holds no run: it starts again.
-    opts.resume = uwnr_train::checkpoint::holds_run(&opts.run_dir);
+    opts.resume = uwnr_run::folder::holds_run(&opts.run_dir);
     opts.vgg19.clone_from(&spec.vgg19);
     opts.limits = spec.limits;
     let summary = train(&cfg, &opts, stop, &mut |e| observer(Event::Train(name, e)))
@@ -328,14 +328,8 @@ fn score_row(
 
 /// `image` downscaled so its longer side is at most `max_side` (aspect kept).
 fn fit_side(image: Image, max_side: Option<usize>) -> Result<Image> {
-    let (w, h) = image.size();
     match max_side {
-        Some(m) if w.max(h) > m => {
-            let s = m as f64 / w.max(h) as f64;
-            let nw = ((w as f64 * s).round() as usize).max(1);
-            let nh = ((h as f64 * s).round() as usize).max(1);
-            Ok(resize_bilinear(&image, nw, nh)?)
-        }
+        Some(m) if image.width().max(image.height()) > m => Ok(fit_within(&image, m)?),
         _ => Ok(image),
     }
 }

@@ -10,12 +10,13 @@
 //! multiplies each channel of the underwater crop by a gain and applies a gamma before the
 //! light field is computed, so the map always describes the target the network must produce.
 
-use rand::seq::SliceRandom;
-use rand::{Rng, SeedableRng};
+use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use uwnr_core::Image;
 use uwnr_model::Variant;
 use uwnr_model::style::{anchor, estimate_water};
+use uwnr_run::plan::{Geometry, plan_crop};
+pub use uwnr_run::plan::{epoch_order, source_of};
 
 use crate::config::{AugmentConfig, ColorCast};
 use crate::data::PairData;
@@ -27,34 +28,6 @@ pub const INPUT_CHANNELS: usize = 7;
 pub const WATER_VALUES: usize = 6;
 /// Channels of the target.
 pub const TARGET_CHANNELS: usize = 3;
-/// Stream tag of the per-epoch data order.
-const STREAM_ORDER: u64 = 0x006f_7264_6572; // "order"
-/// Stream tag of the per-sample augmentation.
-const STREAM_SAMPLE: u64 = 0x7361_6d70_6c65; // "sample"
-
-/// SplitMix64 finaliser (Steele et al. 2014): mixes a 64-bit word so nearby inputs give
-/// unrelated seeds.
-#[must_use]
-pub fn mix64(mut z: u64) -> u64 {
-    z = z.wrapping_add(0x9e37_79b9_7f4a_7c15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    z ^ (z >> 31)
-}
-
-/// A generator seeded from `(seed, stream, a, b)`.
-fn rng_for(seed: u64, stream: u64, a: u64, b: u64) -> ChaCha8Rng {
-    ChaCha8Rng::seed_from_u64(mix64(mix64(mix64(seed ^ stream) ^ a) ^ b))
-}
-
-/// The order in which epoch `epoch` visits the `n` pairs: a seeded permutation.
-#[must_use]
-pub fn epoch_order(seed: u64, epoch: usize, n: usize) -> Vec<usize> {
-    let mut order: Vec<usize> = (0..n).collect();
-    order.shuffle(&mut rng_for(seed, STREAM_ORDER, epoch as u64, 0));
-    order
-}
-
 /// A colour cast: a gain per channel, then a gamma.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Cast {
@@ -81,7 +54,8 @@ pub struct SamplePlan {
     pub cast: Option<Cast>,
 }
 
-/// The plan of sample `position` of epoch `epoch`, for `pair` of size `width x height`.
+/// The plan of sample `position` of epoch `epoch`, for `pair` of size `width x height`: the
+/// crop, flip and turn of [`plan_crop`], then the colour cast drawn from the same generator.
 #[must_use]
 pub fn plan_sample(
     seed: u64,
@@ -91,20 +65,18 @@ pub fn plan_sample(
     crop: usize,
     aug: &AugmentConfig,
 ) -> SamplePlan {
-    let (index, width, height) = pair;
-    let mut rng = rng_for(seed, STREAM_SAMPLE, epoch as u64, position as u64);
-    let x0 = rng.random_range(0..=width.saturating_sub(crop));
-    let y0 = rng.random_range(0..=height.saturating_sub(crop));
-    // Always draw every value so that switching one augmentation off leaves the others' draws.
-    let flip = rng.random_bool(0.5);
-    let turns = rng.random_range(0..4_u8);
+    let geometry = Geometry {
+        flip: aug.flip,
+        rotate: aug.rotate,
+    };
+    let (p, mut rng) = plan_crop(seed, epoch, position, pair, crop, geometry);
     let cast = draw_cast(&mut rng, aug.color_cast.as_ref());
     SamplePlan {
-        pair: index,
-        x0,
-        y0,
-        flip: aug.flip && flip,
-        quarter_turns: if aug.rotate { turns } else { 0 },
+        pair: p.pair,
+        x0: p.x0,
+        y0: p.y0,
+        flip: p.flip,
+        quarter_turns: p.quarter_turns,
         cast,
     }
 }
@@ -154,16 +126,13 @@ pub fn make_sample(
     variant: Variant,
     light_field: impl Fn(&Image) -> Result<Image>,
 ) -> Result<Sample> {
-    if pair.width < crop
-        || pair.height < crop
-        || plan.x0 + crop > pair.width
-        || plan.y0 + crop > pair.height
-    {
+    let (w, h) = (pair.width(), pair.height());
+    if w < crop || h < crop || plan.x0 + crop > w || plan.y0 + crop > h {
         return Err(TrainError::BadImage {
             path: pair.name.clone().into(),
             reason: format!(
                 "crop {crop}x{crop}+{}+{} leaves the {}x{} pair",
-                plan.x0, plan.y0, pair.width, pair.height
+                plan.x0, plan.y0, w, h
             ),
         });
     }
@@ -171,8 +140,6 @@ pub fn make_sample(
     let mut clean = vec![0.0_f32; 3 * n];
     let mut under = vec![0.0_f32; 3 * n];
     let mut depth = vec![0.0_f32; n];
-    let (w, h) = (pair.width, pair.height);
-    let plane8 = pair.width * pair.height;
     for oy in 0..crop {
         for ox in 0..crop {
             // Output pixel (ox, oy) shows the augmented-crop pixel: undo the rotation, then the flip.
@@ -180,8 +147,8 @@ pub fn make_sample(
             let src = (plan.y0 + cy) * w + plan.x0 + cx;
             let dst = oy * crop + ox;
             for c in 0..3 {
-                clean[c * n + dst] = f32::from(pair.clean[c * plane8 + src]) / 255.0;
-                under[c * n + dst] = f32::from(pair.underwater[c * plane8 + src]) / 255.0;
+                clean[c * n + dst] = pair.clean.value(c, src);
+                under[c * n + dst] = pair.underwater.value(c, src);
             }
             depth[dst] = f32::from(pair.depth[src]) / 65_535.0;
         }
@@ -244,23 +211,6 @@ pub fn make_sample(
     }
 }
 
-/// Where output pixel `(x, y)` of the augmented `crop x crop` sample comes from in the
-/// un-augmented crop: the sample is `rotate_ccw^turns(flip?(crop))`.
-#[must_use]
-pub fn source_of(x: usize, y: usize, crop: usize, flip: bool, turns: u8) -> (usize, usize) {
-    let last = crop - 1;
-    // Undo the counter-clockwise quarter turns one by one: a CCW turn maps source (sx, sy) to
-    // (sy, last - sx), so its inverse maps (x, y) to (last - y, x).
-    let (mut sx, mut sy) = (x, y);
-    for _ in 0..turns % 4 {
-        (sx, sy) = (last - sy, sx);
-    }
-    if flip {
-        sx = last - sx;
-    }
-    (sx, sy)
-}
-
 /// `v <- clamp(v * gain_c, 0, 1)^gamma` on planar RGB with `n` pixels a plane.
 pub fn apply_cast(rgb: &mut [f32], n: usize, cast: &Cast) {
     for (c, plane) in rgb.chunks_exact_mut(n).enumerate().take(3) {
@@ -274,43 +224,6 @@ pub fn apply_cast(rgb: &mut [f32], n: usize, cast: &Cast) {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn epoch_order_is_a_seeded_permutation() {
-        let a = epoch_order(1, 0, 50);
-        let mut sorted = a.clone();
-        sorted.sort_unstable();
-        assert_eq!(sorted, (0..50).collect::<Vec<_>>());
-        assert_eq!(a, epoch_order(1, 0, 50));
-        assert_ne!(a, epoch_order(1, 1, 50));
-        assert_ne!(a, epoch_order(2, 0, 50));
-    }
-
-    #[test]
-    fn one_quarter_turn_is_counter_clockwise() {
-        // A 2x2 crop [[a, b], [c, d]] turned CCW is [[b, d], [a, c]].
-        let src = |x: usize, y: usize| ["ab", "cd"][y].as_bytes()[x] as char;
-        let turned: String = (0..2)
-            .flat_map(|y| (0..2).map(move |x| (x, y)))
-            .map(|(x, y)| {
-                let (sx, sy) = source_of(x, y, 2, false, 1);
-                src(sx, sy)
-            })
-            .collect();
-        assert_eq!(turned, "bdac");
-        // Flip first: [[b, a], [d, c]], then CCW: [[a, c], [b, d]].
-        let flipped: String = (0..2)
-            .flat_map(|y| (0..2).map(move |x| (x, y)))
-            .map(|(x, y)| {
-                let (sx, sy) = source_of(x, y, 2, true, 1);
-                src(sx, sy)
-            })
-            .collect();
-        assert_eq!(flipped, "acbd");
-        for turns in 0..4 {
-            assert_eq!(source_of(0, 0, 5, false, turns * 4 % 4), (0, 0));
-        }
-    }
 
     #[test]
     fn plans_stay_inside_and_follow_the_switches() {

@@ -1,13 +1,15 @@
 //! uwnr-train: training of the UWNR generator (Ye et al., "Underwater Light Field Retention:
-//! Neural Rendering for Underwater Imaging", CVPR-W 2022) in burn.
+//! Neural Rendering for Underwater Imaging", CVPR-W 2022) in burn, as a task of uwnr-run's
+//! training loop.
 //!
 //! - [`config::TrainConfig`]: the run's settings; `Default` is the paper's recipe;
-//! - [`data`]: paired folders, decoding, depth computed once;
+//! - [`data`]: paired folders with depth, computed once;
 //! - [`augment`], [`loader`]: crops, flips, rotations, colour casts and the light field of each
-//!   sample, a pure function of `(seed, epoch, position)`, prepared on a producer thread;
+//!   sample, a pure function of `(seed, epoch, position)`;
 //! - [`losses`], [`vgg`]: L1, VGG19 perceptual (or an SSIM stand-in), underwater dark channel,
 //!   light-field consistency;
-//! - [`trainer::train`]: the loop, validation, checkpoints ([`checkpoint`]) and exact resume.
+//! - [`trainer::train`]: UWNR's task (step, validation, `generator.safetensors`) on
+//!   [`uwnr_run::train`], which owns the loop, logs, curves, checkpoints and exact resume.
 //!
 //! ```no_run
 //! use std::sync::atomic::AtomicBool;
@@ -22,14 +24,11 @@
 //! ```
 
 pub mod augment;
-pub mod checkpoint;
 pub mod config;
-pub mod csvlog;
 pub mod data;
 pub mod error;
 pub mod loader;
 pub mod losses;
-pub mod plot;
 pub mod trainer;
 pub mod vgg;
 
@@ -39,5 +38,6 @@ pub use config::{
 };
 pub use error::{Result, TrainError};
 pub use losses::{Criterion, LossValues};
-pub use trainer::{Event, TrainOptions, TrainSummary, ValResult, init_seeded, train, train_step};
+pub use trainer::{GENERATOR_FILE, TrainOptions, TrainSummary, train, train_step};
+pub use uwnr_run::{Event, ValResult, init_seeded};
 pub use vgg::Vgg19Features;

@@ -206,27 +206,17 @@ impl LossValues {
         ]
     }
 
-    /// Element-wise sum.
+    /// The values from a slice in CSV column order (as [`Self::as_array`] gives them); missing
+    /// values are NaN.
     #[must_use]
-    pub fn add(&self, o: &Self) -> Self {
+    pub fn from_slice(v: &[f64]) -> Self {
+        let g = |i: usize| v.get(i).copied().unwrap_or(f64::NAN);
         Self {
-            reconstruction: self.reconstruction + o.reconstruction,
-            perceptual: self.perceptual + o.perceptual,
-            dark_channel: self.dark_channel + o.dark_channel,
-            light_field: self.light_field + o.light_field,
-            total: self.total + o.total,
-        }
-    }
-
-    /// Every value divided by `n`.
-    #[must_use]
-    pub fn scale(&self, s: f64) -> Self {
-        Self {
-            reconstruction: self.reconstruction * s,
-            perceptual: self.perceptual * s,
-            dark_channel: self.dark_channel * s,
-            light_field: self.light_field * s,
-            total: self.total * s,
+            reconstruction: g(0),
+            perceptual: g(1),
+            dark_channel: g(2),
+            light_field: g(3),
+            total: g(4),
         }
     }
 
@@ -320,10 +310,11 @@ impl Criterion {
 
 /// Reads the `[5]` term tensor of [`LossOutput`].
 pub fn read_terms(terms: Tensor<1>) -> crate::error::Result<LossValues> {
-    let v = terms
-        .into_data()
-        .try_to_vec::<f32>()
-        .map_err(|e| crate::error::TrainError::Loader(format!("reading loss values: {e:?}")))?;
+    let v = terms.into_data().try_to_vec::<f32>().map_err(|e| {
+        crate::error::TrainError::Model(uwnr_model::ModelError::Backend(format!(
+            "reading loss values: {e:?}"
+        )))
+    })?;
     let g = |i: usize| v.get(i).copied().map_or(f64::NAN, f64::from);
     Ok(LossValues {
         reconstruction: g(0),

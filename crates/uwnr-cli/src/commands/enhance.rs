@@ -11,12 +11,10 @@ use std::process::ExitCode;
 use anyhow::{Context, Result, bail};
 use serde_json::json;
 use uwnr_core::io::{DecodeLimits, is_image_path, load_rgb, save_rgb, write_atomic};
-use uwnr_enhance::train::CONFIG_FILE;
-use uwnr_enhance::{
-    EnhanceEvent, EnhanceTrainConfig, EnhanceTrainOptions, EvalReport, ShallowUwnet,
-};
+use uwnr_enhance::{EnhanceTrainConfig, EnhanceTrainOptions, EvalReport, ShallowUwnet};
 use uwnr_model::Device;
 
+use super::training;
 use crate::cli::{
     EnhanceAction, EnhanceApplyArgs, EnhanceArgs, EnhanceEvalArgs, EnhanceTrainArgs, Pairing,
 };
@@ -32,61 +30,25 @@ pub fn run(a: &EnhanceArgs) -> Result<ExitCode> {
 }
 
 fn train(a: &EnhanceTrainArgs) -> Result<ExitCode> {
-    let cfg = config(a)?;
-    let device = super::device(a.device)?;
-    let mut opts = EnhanceTrainOptions::new(a.data.clone(), a.run.clone(), device);
-    opts.val = a.val.clone();
-    opts.resume = a.resume;
-    opts.vgg19 = a.vgg19.clone();
-    opts.max_steps = a.max_steps;
+    let c = &a.common;
+    let cfg: EnhanceTrainConfig = training::config(c)?;
+    cfg.validate()
+        .context("checking the enhancer training config")?;
+    let device = super::device(c.device)?;
+    let mut opts = EnhanceTrainOptions::new(c.data.clone(), c.run.clone(), device);
+    opts.val = c.val.clone();
+    opts.resume = c.resume;
+    opts.vgg19 = c.vgg19.clone();
+    opts.max_steps = c.max_steps;
 
-    let stop = super::stop_on_ctrl_c(
-        "stopping after this step and writing a checkpoint (Ctrl-C again to abort)",
-    )?;
-
-    let bar =
-        super::progress_bar("{spinner} step {pos}/{len} [{bar:30}] {per_sec} eta {eta} {msg}");
-    let mut observer = |e: EnhanceEvent<'_>| match e {
-        EnhanceEvent::Message(m) => bar.suspend(|| eprintln!("{m}")),
-        EnhanceEvent::Started {
-            step, total_steps, ..
-        } => {
-            bar.set_length(total_steps as u64);
-            bar.set_position(step as u64);
-            bar.reset_eta();
-        }
-        EnhanceEvent::Step {
-            step, epoch, total, ..
-        } => {
-            bar.set_position(step as u64);
-            bar.set_message(format!("epoch {epoch} loss {total:.4}"));
-        }
-        EnhanceEvent::Validation {
-            step,
-            epoch,
-            psnr,
-            ssim,
-        } => bar.suspend(|| {
-            eprintln!(
-                "validation at step {step} (epoch {epoch}): PSNR {psnr:.2} dB, SSIM {ssim:.4}"
-            );
-        }),
-        EnhanceEvent::Checkpoint { step, path } => {
-            bar.suspend(|| eprintln!("checkpoint at step {step}: {}", path.display()));
-        }
-    };
-    let summary = uwnr_enhance::train(&cfg, &opts, &stop, &mut observer)
-        .with_context(|| format!("training run {}", a.run.display()))?;
+    let stop = training::stop_flag()?;
+    let bar = training::progress();
+    let summary = uwnr_enhance::train(&cfg, &opts, &stop, &mut |e| training::show(&bar, e))
+        .with_context(|| format!("training run {}", c.run.display()))?;
     bar.finish_and_clear();
-    let state = if summary.finished {
-        "finished"
-    } else if summary.interrupted {
-        "stopped (resume with --resume)"
-    } else {
-        "paused (resume with --resume)"
-    };
     eprintln!(
-        "{state} at step {} ({} steps this session); weights: {}{}",
+        "{} at step {} ({} steps this session); weights: {}{}",
+        training::ended(summary.finished, summary.interrupted),
         summary.step,
         summary.session_steps,
         summary.last_weights.display(),
@@ -100,45 +62,6 @@ fn train(a: &EnhanceTrainArgs) -> Result<ExitCode> {
             .unwrap_or_default()
     );
     Ok(ExitCode::SUCCESS)
-}
-
-/// The run's config: the run folder's `config.json` on resume, else `--config` or the
-/// defaults; then the command-line overrides.
-fn config(a: &EnhanceTrainArgs) -> Result<EnhanceTrainConfig> {
-    let saved = a.run.join(CONFIG_FILE);
-    let mut cfg = if a.resume {
-        if a.config.is_some() {
-            bail!(
-                "--resume uses the run's own {}; drop --config",
-                saved.display()
-            );
-        }
-        EnhanceTrainConfig::from_json_file(&saved)
-            .with_context(|| format!("reading {}", saved.display()))?
-    } else if let Some(path) = &a.config {
-        EnhanceTrainConfig::from_json_file(path)
-            .with_context(|| format!("reading {}", path.display()))?
-    } else {
-        EnhanceTrainConfig::default()
-    };
-    if let Some(v) = a.epochs {
-        cfg.epochs = v;
-    }
-    if let Some(v) = a.batch_size {
-        cfg.batch_size = v;
-    }
-    if let Some(v) = a.crop {
-        cfg.crop = v;
-    }
-    if let Some(v) = a.seed {
-        cfg.seed = v;
-    }
-    if let Some(v) = a.lr {
-        cfg.lr = v;
-    }
-    cfg.validate()
-        .context("checking the enhancer training config")?;
-    Ok(cfg)
 }
 
 /// Loads enhancer weights with a one-line error.

@@ -7,8 +7,9 @@ use anyhow::{Context, Result};
 use clap::{Args, Subcommand};
 use uwnr_core::io::DecodeLimits;
 use uwnr_dataset::Renderer;
-use uwnr_experiment::enhance::train::{EnhanceEvent, EnhanceTrainConfig};
+use uwnr_experiment::enhance::train::EnhanceTrainConfig;
 use uwnr_experiment::{DownstreamSpec, Event, ExperimentError, TrainingSet};
+use uwnr_run::Event as RunEvent;
 
 use crate::cli::{BaselineOpts, DepthOpts, MethodArg, ModelOpts};
 
@@ -189,7 +190,7 @@ fn downstream(a: &DownstreamArgs) -> Result<ExitCode> {
             uwnr_dataset::Event::Note(n) => bar.suspend(|| eprintln!("{n}")),
         },
         Event::Train(name, e) => match e {
-            EnhanceEvent::Started {
+            RunEvent::Started {
                 step, total_steps, ..
             } => {
                 bar.set_prefix(format!("{name} steps"));
@@ -197,11 +198,12 @@ fn downstream(a: &DownstreamArgs) -> Result<ExitCode> {
                 bar.set_position(step as u64);
                 bar.reset_eta();
             }
-            EnhanceEvent::Step { step, total, .. } => {
+            RunEvent::Step { step, losses, .. } => {
                 bar.set_position(step as u64);
+                let total = losses.last().copied().unwrap_or(f64::NAN);
                 bar.set_message(format!("loss {total:.4}"));
             }
-            EnhanceEvent::Message(m) => bar.suspend(|| eprintln!("{m}")),
+            RunEvent::Message(m) => bar.suspend(|| eprintln!("{m}")),
             _ => {}
         },
         Event::Scored {

@@ -11,6 +11,7 @@ mod lightfield;
 mod method;
 mod render;
 mod train;
+mod training;
 
 use std::path::Path;
 use std::process::ExitCode;

@@ -2,66 +2,32 @@
 
 use std::process::ExitCode;
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result};
 use uwnr_model::GeneratorConfig;
-use uwnr_train::trainer::CONFIG_FILE;
-use uwnr_train::{ColorCast, Event, LightFieldLoss, TrainConfig, TrainOptions};
+use uwnr_train::{ColorCast, LightFieldLoss, TrainConfig, TrainOptions};
 
+use super::training;
 use crate::cli::{LightFieldLossArg, TrainArgs};
 
 pub fn run(a: &TrainArgs) -> Result<ExitCode> {
+    let c = &a.common;
     let cfg = config(a)?;
-    let device = super::device(a.device)?;
-    let mut opts = TrainOptions::new(a.data.clone(), a.run.clone(), device);
-    opts.val = a.val.clone();
-    opts.resume = a.resume;
-    opts.vgg19 = a.vgg19.clone();
-    opts.max_steps = a.max_steps;
+    let device = super::device(c.device)?;
+    let mut opts = TrainOptions::new(c.data.clone(), c.run.clone(), device);
+    opts.val = c.val.clone();
+    opts.resume = c.resume;
+    opts.vgg19 = c.vgg19.clone();
+    opts.max_steps = c.max_steps;
     opts.val_refs = a.val_refs.clone();
 
-    let stop = super::stop_on_ctrl_c(
-        "stopping after this step and writing a checkpoint (Ctrl-C again to abort)",
-    )?;
-
-    let bar =
-        super::progress_bar("{spinner} step {pos}/{len} [{bar:30}] {per_sec} eta {eta} {msg}");
-    let mut observer = |e: Event<'_>| match e {
-        Event::Message(m) => bar.suspend(|| eprintln!("{m}")),
-        Event::Started {
-            step, total_steps, ..
-        } => {
-            bar.set_length(total_steps as u64);
-            bar.set_position(step as u64);
-            bar.reset_eta();
-        }
-        Event::Step {
-            step, epoch, loss, ..
-        } => {
-            bar.set_position(step as u64);
-            bar.set_message(format!("epoch {epoch} loss {:.4}", loss.total));
-        }
-        Event::Validation(v) => bar.suspend(|| {
-            eprintln!(
-                "validation at step {} (epoch {}): PSNR {:.2} dB, SSIM {:.4} ({:.0} s)",
-                v.step, v.epoch, v.psnr, v.ssim, v.secs
-            );
-        }),
-        Event::Checkpoint { step, path } => {
-            bar.suspend(|| eprintln!("checkpoint at step {step}: {}", path.display()));
-        }
-    };
-    let summary = uwnr_train::train(&cfg, &opts, &stop, &mut observer)
-        .with_context(|| format!("training run {}", a.run.display()))?;
+    let stop = training::stop_flag()?;
+    let bar = training::progress();
+    let summary = uwnr_train::train(&cfg, &opts, &stop, &mut |e| training::show(&bar, e))
+        .with_context(|| format!("training run {}", c.run.display()))?;
     bar.finish_and_clear();
-    let state = if summary.finished {
-        "finished"
-    } else if summary.interrupted {
-        "stopped (resume with --resume)"
-    } else {
-        "paused (resume with --resume)"
-    };
     eprintln!(
-        "{state} at step {} ({} steps this session){}",
+        "{} at step {} ({} steps this session){}",
+        training::ended(summary.finished, summary.interrupted),
         summary.step,
         summary.session_steps,
         summary
@@ -72,39 +38,9 @@ pub fn run(a: &TrainArgs) -> Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-/// The run's config: the run folder's `config.json` on resume, else `--config` or the paper's
-/// defaults; then the command-line overrides.
+/// The run's config ([`training::config`]), then the overrides only `uwnr train` has.
 fn config(a: &TrainArgs) -> Result<TrainConfig> {
-    let saved = a.run.join(CONFIG_FILE);
-    let mut cfg = if a.resume {
-        if a.config.is_some() {
-            bail!(
-                "--resume uses the run's own {}; drop --config",
-                saved.display()
-            );
-        }
-        TrainConfig::from_json_file(&saved)
-            .with_context(|| format!("reading {}", saved.display()))?
-    } else if let Some(path) = &a.config {
-        TrainConfig::from_json_file(path).with_context(|| format!("reading {}", path.display()))?
-    } else {
-        TrainConfig::default()
-    };
-    if let Some(v) = a.epochs {
-        cfg.epochs = v;
-    }
-    if let Some(v) = a.batch_size {
-        cfg.batch_size = v;
-    }
-    if let Some(v) = a.crop {
-        cfg.crop = v;
-    }
-    if let Some(v) = a.seed {
-        cfg.seed = v;
-    }
-    if let Some(v) = a.lr {
-        cfg.lr = v;
-    }
+    let mut cfg: TrainConfig = training::config(&a.common)?;
     if let Some(v) = a.width {
         cfg.model = GeneratorConfig {
             base_width: v,
@@ -122,9 +58,6 @@ fn config(a: &TrainArgs) -> Result<TrainConfig> {
     }
     if a.color_cast && cfg.augment.color_cast.is_none() {
         cfg.augment.color_cast = Some(ColorCast::default());
-    }
-    if let Some(v) = a.val_every {
-        cfg.val_every_epochs = v;
     }
     cfg.validate().context("checking the training config")?;
     Ok(cfg)

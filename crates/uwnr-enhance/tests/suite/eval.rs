@@ -4,7 +4,7 @@
 use uwnr_core::io::{DecodeLimits, load_rgb};
 use uwnr_enhance::{EnhanceError, ShallowUwnetConfig, evaluate_dir};
 use uwnr_model::Device;
-use uwnr_train::TrainError;
+use uwnr_run::RunError;
 
 use crate::common::make_dir;
 
@@ -75,10 +75,7 @@ fn folder_errors_are_clear() {
     std::fs::create_dir_all(&plain).unwrap();
     let err = eval(&plain).unwrap_err();
     assert!(
-        matches!(
-            err,
-            EnhanceError::Train(TrainError::NotAPairedFolder { .. })
-        ),
+        matches!(err, EnhanceError::Run(RunError::NotAPairedFolder { .. })),
         "{err}"
     );
     // Empty folders.
@@ -96,7 +93,7 @@ fn folder_errors_are_clear() {
     .unwrap();
     let err = eval(&unpaired).unwrap_err();
     assert!(
-        matches!(err, EnhanceError::Train(TrainError::NoPairs { .. })),
+        matches!(err, EnhanceError::Run(RunError::NoPairs { .. })),
         "{err}"
     );
     // A corrupt file stops the evaluation and names the file.
@@ -109,5 +106,8 @@ fn folder_errors_are_clear() {
     let other = make_dir(&tmp.path().join("sizes-src"), 1, 40, 32);
     std::fs::copy(other.join("clean/000.png"), sizes.join("clean/000.png")).unwrap();
     let err = eval(&sizes).unwrap_err();
-    assert!(matches!(err, EnhanceError::BadPair { .. }), "{err}");
+    assert!(
+        matches!(err, EnhanceError::Run(RunError::BadImage { .. })),
+        "{err}"
+    );
 }

@@ -5,13 +5,13 @@
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
 
-use uwnr_enhance::train::{ENHANCER_FILE, EnhanceEvent};
+use uwnr_enhance::train::ENHANCER_FILE;
 use uwnr_enhance::{
     EnhanceError, EnhanceTrainConfig, EnhanceTrainOptions, EnhanceTrainSummary, ShallowUwnetConfig,
     train,
 };
 use uwnr_model::Device;
-use uwnr_train::TrainError;
+use uwnr_run::{Event, RunError};
 
 use crate::common::make_dir;
 
@@ -43,13 +43,13 @@ fn run(
     let mut totals = Vec::new();
     let mut messages = Vec::new();
     let s = train(cfg, opts, &stop, &mut |e| match e {
-        EnhanceEvent::Step { step, total, .. } => {
-            totals.push((step, total));
+        Event::Step { step, losses, .. } => {
+            totals.push((step, losses[2]));
             if stop_after.is_some_and(|n| step >= n) {
                 stop.store(true, Ordering::Relaxed);
             }
         }
-        EnhanceEvent::Message(m) => messages.push(m.to_string()),
+        Event::Message(m) => messages.push(m.to_string()),
         _ => {}
     })
     .unwrap();
@@ -119,7 +119,7 @@ fn loss_falls_and_the_run_writes_its_files() {
     let stop = AtomicBool::new(false);
     let err = train(&cfg, &opts, &stop, &mut |_| {}).unwrap_err();
     assert!(
-        matches!(err, EnhanceError::Train(TrainError::RunExists { .. })),
+        matches!(err, EnhanceError::Run(RunError::RunExists { .. })),
         "{err}"
     );
     // Resuming with another config names what changed.
@@ -131,7 +131,7 @@ fn loss_falls_and_the_run_writes_its_files() {
     };
     let err = train(&other, &resume, &stop, &mut |_| {}).unwrap_err();
     assert!(
-        matches!(&err, EnhanceError::ConfigChanged { fields, .. } if fields == &["epochs"]),
+        matches!(&err, EnhanceError::Run(RunError::ConfigChanged { fields, .. }) if fields == &["epochs"]),
         "{err}"
     );
     assert!(err.to_string().contains("epochs"), "{err}");
@@ -166,7 +166,7 @@ fn a_resumed_run_follows_the_uninterrupted_one() {
     assert!(messages.iter().any(|m| m.contains("resuming at step 3")));
     // The training time adds up over sessions and is the one the checkpoint records.
     assert!(b1.train_secs > 0.0 && b2.train_secs > b1.train_secs);
-    let state = uwnr_train::checkpoint::read_state(&tmp.path().join("b/checkpoints/last")).unwrap();
+    let state = uwnr_run::checkpoint::read_state(&tmp.path().join("b/checkpoints/last")).unwrap();
     assert!((state.train_secs - b2.train_secs).abs() < 1e-9);
 
     let resumed: Vec<(usize, f64)> = t1.into_iter().chain(t2).collect();
@@ -192,8 +192,7 @@ fn the_stop_flag_ends_with_a_checkpoint() {
     let opts = EnhanceTrainOptions::new(vec![data], tmp.path().join("run"), Device::flex());
     let (s, totals, _) = run(&tiny_config(5), &opts, Some(3));
     assert!(s.interrupted && !s.finished && s.step == 3 && totals.len() == 3);
-    let state =
-        uwnr_train::checkpoint::read_state(&tmp.path().join("run/checkpoints/last")).unwrap();
+    let state = uwnr_run::checkpoint::read_state(&tmp.path().join("run/checkpoints/last")).unwrap();
     assert_eq!((state.step, state.epoch, state.batch_in_epoch), (3, 1, 1));
 }
 
@@ -210,10 +209,7 @@ fn bad_data_gives_clear_errors() {
     std::fs::create_dir_all(&plain).unwrap();
     let err = attempt(vec![plain], "r1");
     assert!(
-        matches!(
-            err,
-            EnhanceError::Train(TrainError::NotAPairedFolder { .. })
-        ),
+        matches!(err, EnhanceError::Run(RunError::NotAPairedFolder { .. })),
         "{err}"
     );
     // No names in common.
@@ -222,7 +218,7 @@ fn bad_data_gives_clear_errors() {
     std::fs::rename(unpaired.join("clean/001.png"), unpaired.join("clean/y.png")).unwrap();
     let err = attempt(vec![unpaired], "r2");
     assert!(
-        matches!(err, EnhanceError::Train(TrainError::NoPairs { .. })),
+        matches!(err, EnhanceError::Run(RunError::NoPairs { .. })),
         "{err}"
     );
     // Only corrupt files.
@@ -242,13 +238,13 @@ fn bad_data_gives_clear_errors() {
     let mut report = String::new();
     let o = EnhanceTrainOptions::new(vec![few], tmp.path().join("r4"), Device::flex());
     let err = train(&cfg, &o, &AtomicBool::new(false), &mut |e| {
-        if let EnhanceEvent::Message(m) = e {
+        if let Event::Message(m) = e {
             report.push_str(m);
         }
     })
     .unwrap_err();
     assert!(
-        matches!(err, EnhanceError::Train(TrainError::NoData(_))),
+        matches!(err, EnhanceError::Run(RunError::NoData(_))),
         "{err}"
     );
     assert!(
@@ -317,13 +313,8 @@ fn vgg19_weights_replace_the_stand_in() {
     let mut steps = Vec::new();
     let mut messages = Vec::new();
     train(&cfg, &opts, &stop, &mut |e| match e {
-        EnhanceEvent::Step {
-            mse,
-            perceptual,
-            total,
-            ..
-        } => steps.push((mse, perceptual, total)),
-        EnhanceEvent::Message(m) => messages.push(m.to_string()),
+        Event::Step { losses, .. } => steps.push((losses[0], losses[1], losses[2])),
+        Event::Message(m) => messages.push(m.to_string()),
         _ => {}
     })
     .unwrap();

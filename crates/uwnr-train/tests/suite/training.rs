@@ -8,10 +8,12 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use uwnr_core::Image;
 use uwnr_core::io::save_rgb;
 use uwnr_model::{Device, GeneratorConfig, read_weights};
-use uwnr_train::checkpoint::{CHECKPOINTS_DIR, GENERATOR_FILE, LAST};
+use uwnr_run::RunError;
+use uwnr_run::checkpoint::{CHECKPOINTS_DIR, LAST};
+use uwnr_run::pairs::discover_pairs;
 use uwnr_train::config::{AugmentConfig, ColorCast, LossWeights};
-use uwnr_train::data::{LoadOptions, discover_pairs, load_data};
-use uwnr_train::{Event, TrainConfig, TrainError, TrainOptions, train};
+use uwnr_train::data::{LoadOptions, load_data};
+use uwnr_train::{Event, GENERATOR_FILE, TrainConfig, TrainError, TrainOptions, train};
 
 /// A smooth clean image and its "underwater" version (a colour cast plus haze).
 fn pair(w: usize, h: usize, k: usize) -> (Image, Image) {
@@ -144,13 +146,19 @@ fn loss_falls_and_validation_writes_its_outputs() {
     // A second run in the same folder without --resume is refused.
     let stop = AtomicBool::new(false);
     let err = train(&cfg, &opts, &stop, &mut |_| {}).unwrap_err();
-    assert!(matches!(err, TrainError::RunExists { .. }), "{err}");
+    assert!(
+        matches!(err, TrainError::Run(RunError::RunExists { .. })),
+        "{err}"
+    );
     // Resuming it with another config is refused too.
     let mut resume = opts.clone();
     resume.resume = true;
     let other = TrainConfig { epochs: 9, ..cfg };
     let err = train(&other, &resume, &stop, &mut |_| {}).unwrap_err();
-    assert!(matches!(err, TrainError::ConfigChanged { .. }), "{err}");
+    assert!(
+        matches!(err, TrainError::Run(RunError::ConfigChanged { .. })),
+        "{err}"
+    );
 }
 
 #[test]
@@ -234,7 +242,7 @@ fn bad_data_is_reported() {
     std::fs::create_dir_all(&plain).unwrap();
     assert!(matches!(
         opts(vec![plain]).unwrap_err(),
-        TrainError::NotAPairedFolder { .. }
+        TrainError::Run(RunError::NotAPairedFolder { .. })
     ));
     // Empty underwater folder.
     let empty = tmp.path().join("empty");
@@ -248,7 +256,7 @@ fn bad_data_is_reported() {
     .unwrap();
     let err = opts(vec![empty]).unwrap_err();
     assert!(
-        matches!(&err, TrainError::NoPairs { reason, .. } if reason.contains("holds no images")),
+        matches!(&err, TrainError::Run(RunError::NoPairs { reason, .. }) if reason.contains("holds no images")),
         "{err}"
     );
     // Unpaired names and a corrupt file are skipped and listed; small images are upscaled.
@@ -261,7 +269,11 @@ fn bad_data_is_reported() {
     let data = opts(vec![mixed]).unwrap();
     assert_eq!(data.pairs.len(), 2);
     assert_eq!(data.report.upscaled.len(), 2);
-    assert!(data.pairs.iter().all(|p| p.width == 32 && p.height >= 32));
+    assert!(
+        data.pairs
+            .iter()
+            .all(|p| p.width() == 32 && p.height() >= 32)
+    );
     let text = data.report.to_text();
     assert!(
         text.contains("lonely.png") && text.contains("001.png"),
@@ -271,13 +283,16 @@ fn bad_data_is_reported() {
     let broken = make_dir(&tmp.path().join("broken"), 1, 32, 32, "png");
     std::fs::write(broken.join("clean/000.png"), b"garbage").unwrap();
     let err = opts(vec![broken]).unwrap_err();
-    assert!(matches!(err, TrainError::NoPairs { .. }), "{err}");
+    assert!(
+        matches!(err, TrainError::Run(RunError::NoPairs { .. })),
+        "{err}"
+    );
     // Fewer pairs than a batch.
     let few = make_dir(&tmp.path().join("few"), 1, 32, 32, "png");
     let cfg = tiny_config(1);
     let o = TrainOptions::new(vec![few], tmp.path().join("run-few"), Device::flex());
     let err = train(&cfg, &o, &AtomicBool::new(false), &mut |_| {}).unwrap_err();
-    assert!(matches!(err, TrainError::NoData(_)), "{err}");
+    assert!(matches!(err, TrainError::Run(RunError::NoData(_))), "{err}");
     // Resuming a folder without a run.
     let mut o = TrainOptions::new(
         vec![tmp.path().join("mixed")],
@@ -313,8 +328,11 @@ fn a_failed_start_does_not_claim_the_run_folder() {
     let good = TrainOptions::new(vec![data], run_dir.clone(), Device::flex());
     let s = run(&cfg, &good, None);
     assert!(s.finished);
-    assert!(uwnr_train::checkpoint::holds_run(&run_dir));
+    assert!(uwnr_run::folder::holds_run(&run_dir));
     // Now it holds a run: a fresh start is refused.
     let err = train(&cfg, &good, &stop, &mut |_| {}).unwrap_err();
-    assert!(matches!(err, TrainError::RunExists { .. }), "{err}");
+    assert!(
+        matches!(err, TrainError::Run(RunError::RunExists { .. })),
+        "{err}"
+    );
 }

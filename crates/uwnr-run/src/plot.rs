@@ -1,7 +1,7 @@
 //! Pictures of a run, drawn with `uwnr-figures` (plotters and an embedded DejaVu Sans): the
 //! loss and validation curves (`curves.png`: titles, axis labels, a legend per panel) and the
-//! validation contact sheets (columns headed clean | render | real underwater, one row per pair,
-//! labelled with its name).
+//! validation contact sheets (columns headed by the task, one row per pair, labelled with its
+//! name).
 
 use std::path::Path;
 
@@ -9,7 +9,7 @@ use uwnr_core::Image;
 use uwnr_core::io::save_rgb;
 use uwnr_figures::{Panel, Reference, Series, Sheet, SheetRow, draw_panels, draw_sheet};
 
-use crate::error::{Result, TrainError};
+use crate::error::{Result, RunError};
 
 /// Width of the curve picture.
 const PLOT_W: u32 = 960;
@@ -27,15 +27,8 @@ pub const SERIES_COLOURS: [[u8; 3]; 6] = [
 ];
 /// Colour of a run's total loss.
 pub const TOTAL_COLOUR: [u8; 3] = [0, 0, 0];
-/// Legend names of UWNR's loss terms (as in `metrics.csv`).
-const TERM_NAMES: [&str; 5] = ["L1", "perceptual", "dark channel", "light field", "total"];
 /// Colour of the validation PSNR curve.
 const VAL_COLOUR: [u8; 3] = [213, 94, 0];
-/// Column headers of a validation contact sheet.
-const SHEET_COLUMNS: [&str; 3] = ["clean", "render", "real underwater"];
-
-/// One logged row of UWNR's training losses: step and the five values.
-pub type LossPoint = (usize, [f64; 5]);
 /// One validation: step, PSNR.
 pub type ValPoint = (usize, f64);
 
@@ -54,30 +47,6 @@ pub struct LossSeries {
 #[must_use]
 pub fn series_colour(index: usize) -> [u8; 3] {
     SERIES_COLOURS[index % SERIES_COLOURS.len()]
-}
-
-/// Draws UWNR's `curves.png` ([`draw_loss_curves`] with its five loss terms: reconstruction,
-/// perceptual, dark channel, light field, total).
-pub fn draw_curves(
-    path: &Path,
-    losses: &[LossPoint],
-    val: &[ValPoint],
-    refs: &[f64],
-) -> Result<()> {
-    let series: Vec<LossSeries> = TERM_NAMES
-        .iter()
-        .enumerate()
-        .map(|(term, name)| LossSeries {
-            name: (*name).to_string(),
-            colour: if term + 1 == TERM_NAMES.len() {
-                TOTAL_COLOUR
-            } else {
-                series_colour(term)
-            },
-            points: losses.iter().map(|(s, v)| (*s, v[term])).collect(),
-        })
-        .collect();
-    draw_loss_curves(path, &series, val, refs)
 }
 
 /// Draws a run's curve picture: the top panel shows the loss `series` (log scale) against the
@@ -129,31 +98,34 @@ pub fn draw_loss_curves(
     Ok(())
 }
 
-fn figure_err(e: uwnr_figures::FigureError) -> TrainError {
-    TrainError::Figure(e.to_string())
+fn figure_err(e: uwnr_figures::FigureError) -> RunError {
+    RunError::Figure(e.to_string())
 }
 
-/// A contact sheet: one row per `(name, clean, render, underwater)`, each image scaled to
-/// `thumb` pixels high (aspect kept), under the column headers clean | render | real underwater.
+/// One row of a contact sheet: its label and its images, one per column.
+pub type SheetLine = (String, Vec<Image>);
+
+/// A contact sheet: one row per `(name, images)`, each image scaled to `thumb` pixels high
+/// (aspect kept), under the column headers `columns`.
 pub fn contact_sheet(
     path: &Path,
-    rows: &[(String, Image, Image, Image)],
+    columns: &[&str],
+    rows: &[SheetLine],
     thumb: usize,
 ) -> Result<()> {
     if rows.is_empty() {
-        return Err(TrainError::InvalidConfig {
-            field: "val_sheet_pairs",
-            reason: "a contact sheet needs at least one pair".into(),
-        });
+        return Err(RunError::Figure(
+            "a contact sheet needs at least one row".into(),
+        ));
     }
     let sheet = Sheet {
         title: None,
-        columns: SHEET_COLUMNS.iter().map(|c| (*c).to_string()).collect(),
+        columns: columns.iter().map(|c| (*c).to_string()).collect(),
         rows: rows
             .iter()
-            .map(|(name, a, b, c)| SheetRow {
+            .map(|(name, images)| SheetRow {
                 label: Some(name.clone()),
-                images: vec![a, b, c],
+                images: images.iter().collect(),
             })
             .collect(),
         thumb,
@@ -196,13 +168,14 @@ mod tests {
         let path = dir.path().join("sheet.png");
         let im = Image::filled(16, 8, 3, 0.5);
         let rows = vec![
-            ("a".to_string(), im.clone(), im.clone(), im.clone()),
-            ("b".to_string(), im.clone(), im.clone(), im),
+            ("a".to_string(), vec![im.clone(), im.clone(), im.clone()]),
+            ("b".to_string(), vec![im.clone(), im.clone(), im]),
         ];
-        contact_sheet(&path, &rows, 32).unwrap();
+        let columns = ["clean", "render", "real underwater"];
+        contact_sheet(&path, &columns, &rows, 32).unwrap();
         let img = image::open(&path).unwrap().to_rgb8();
         // Two rows of 32 px plus a header line above them.
         assert!(img.height() > 2 * 32 + 12, "{}", img.height());
-        assert!(contact_sheet(&path, &[], 32).is_err());
+        assert!(contact_sheet(&path, &columns, &[], 32).is_err());
     }
 }

@@ -1,12 +1,12 @@
 //! Checkpoints of a training run, written atomically, for exact resume.
 //!
 //! A checkpoint is a directory:
-//! - `model.bpk`: the generator in burn's burnpack format, full precision, with burn's
-//!   parameter ids (the optimiser state is keyed by them);
-//! - `optimizer.bpk`: the AdamW state (moments and step counts per parameter);
+//! - `model.bpk`: the network in burn's burnpack format, full precision, with burn's parameter
+//!   ids (the optimiser state is keyed by them);
+//! - `optimizer.bpk`: the optimiser state (moments and step counts per parameter);
 //! - `state.json`: [`RunState`] (step, epoch, position in the epoch, best score...);
-//! - `generator.safetensors`: the generator under the authors' key names with its config, the
-//!   file `uwnr render --weights` takes.
+//! - the network's own weights file, written by its task (e.g. `generator.safetensors` under the
+//!   authors' key names, the file `uwnr render --weights` takes).
 //!
 //! The directory is written as `NAME.tmp` and renamed into place (the previous one is moved to
 //! `NAME.old` for the instant between the two renames and then removed), so a crash or Ctrl-C
@@ -14,17 +14,13 @@
 //! [`find_checkpoint`] looks at both. The data order and augmentation are pure functions of
 //! `(seed, epoch, position)`, so `(epoch, batch_in_epoch)` is the whole state of the sampler.
 
-use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use burn::optim::ModuleOptimizer;
 use burn::store::{BurnpackStore, ModuleSnapshot};
-use burn::tensor::Device;
 use serde::{Deserialize, Serialize};
-use uwnr_model::weights::SOURCE_METADATA_KEY;
-use uwnr_model::{Generator, GeneratorConfig, WeightsDtype, save_generator};
 
-use crate::error::{Result, TrainError};
+use crate::error::{Result, RunError};
 
 /// Folder of the checkpoints inside the run folder.
 pub const CHECKPOINTS_DIR: &str = "checkpoints";
@@ -38,8 +34,6 @@ pub const MODEL_FILE: &str = "model.bpk";
 pub const OPTIMIZER_FILE: &str = "optimizer.bpk";
 /// State file of a checkpoint.
 pub const STATE_FILE: &str = "state.json";
-/// Safetensors export of the generator.
-pub const GENERATOR_FILE: &str = "generator.safetensors";
 /// Version of [`RunState`]'s layout.
 pub const STATE_VERSION: u32 = 1;
 /// Suffix of a checkpoint being written.
@@ -97,7 +91,7 @@ impl RunState {
         seed: u64,
     ) -> Result<()> {
         if self.steps_per_epoch != steps_per_epoch || self.pairs != pairs || self.seed != seed {
-            return Err(TrainError::Checkpoint {
+            return Err(RunError::Checkpoint {
                 path: dir.to_path_buf(),
                 reason: format!(
                     "written for {} pairs / {} steps per epoch / seed {}, the data now gives {} / {} / {}",
@@ -109,52 +103,23 @@ impl RunState {
     }
 }
 
-/// Writes a checkpoint directory atomically. `optimizer` is omitted for export-only
-/// checkpoints (the best model).
-pub fn save_checkpoint(
-    dir: &Path,
-    model: &Generator,
-    config: &GeneratorConfig,
-    optimizer: Option<&ModuleOptimizer>,
-    state: &RunState,
-) -> Result<()> {
-    let mut meta = BTreeMap::new();
-    meta.insert(
-        SOURCE_METADATA_KEY.to_string(),
-        format!("uwnr train, step {}, epoch {}", state.step, state.epoch),
-    );
-    save_module_checkpoint(dir, model, optimizer, state, &|tmp: &Path| {
-        save_generator(
-            model,
-            config,
-            &tmp.join(GENERATOR_FILE),
-            WeightsDtype::F32,
-            &meta,
-        )?;
-        Ok(())
-    })
-}
-
-/// [`save_checkpoint`] for any network: `export(tmp_dir)` writes the network's own weights
-/// file (e.g. safetensors under its state-dict keys) into the checkpoint being assembled.
-pub fn save_module_checkpoint<M: ModuleSnapshot>(
+/// Writes a checkpoint directory atomically: the module (and `optimizer`, omitted for
+/// export-only checkpoints such as the best model), `state`, and what `export(tmp_dir)` writes
+/// into the directory being assembled (the network's own weights file).
+pub fn save_checkpoint<M: ModuleSnapshot, E: From<RunError>>(
     dir: &Path,
     model: &M,
     optimizer: Option<&ModuleOptimizer>,
     state: &RunState,
-    export: &dyn Fn(&Path) -> Result<()>,
-) -> Result<()> {
+    export: impl FnOnce(&Path) -> std::result::Result<(), E>,
+) -> std::result::Result<(), E> {
     let tmp = sibling(dir, TMP_SUFFIX);
     let old = sibling(dir, OLD_SUFFIX);
-    let io = |path: &Path| {
-        let path = path.to_path_buf();
-        move |source| TrainError::Io { path, source }
-    };
     if tmp.exists() {
-        std::fs::remove_dir_all(&tmp).map_err(io(&tmp))?;
+        std::fs::remove_dir_all(&tmp).map_err(RunError::io(&tmp))?;
     }
-    std::fs::create_dir_all(&tmp).map_err(io(&tmp))?;
-    let ck_err = |reason: String| TrainError::Checkpoint {
+    std::fs::create_dir_all(&tmp).map_err(RunError::io(&tmp))?;
+    let ck_err = |reason: String| RunError::Checkpoint {
         path: dir.to_path_buf(),
         reason,
     };
@@ -169,17 +134,17 @@ pub fn save_module_checkpoint<M: ModuleSnapshot>(
     export(&tmp)?;
     let json = serde_json::to_string_pretty(state).map_err(|e| ck_err(e.to_string()))?;
     let state_path = tmp.join(STATE_FILE);
-    std::fs::write(&state_path, json).map_err(io(&state_path))?;
+    std::fs::write(&state_path, json).map_err(RunError::io(&state_path))?;
     sync_dir(&tmp);
     if old.exists() {
-        std::fs::remove_dir_all(&old).map_err(io(&old))?;
+        std::fs::remove_dir_all(&old).map_err(RunError::io(&old))?;
     }
     if dir.exists() {
-        std::fs::rename(dir, &old).map_err(io(dir))?;
+        std::fs::rename(dir, &old).map_err(RunError::io(dir))?;
     }
-    std::fs::rename(&tmp, dir).map_err(io(dir))?;
+    std::fs::rename(&tmp, dir).map_err(RunError::io(dir))?;
     if old.exists() {
-        std::fs::remove_dir_all(&old).map_err(io(&old))?;
+        std::fs::remove_dir_all(&old).map_err(RunError::io(&old))?;
     }
     if let Some(parent) = dir.parent() {
         sync_dir(parent);
@@ -196,46 +161,16 @@ pub fn find_checkpoint(dir: &Path) -> Option<PathBuf> {
         .find(|d| d.join(STATE_FILE).is_file() && d.join(MODEL_FILE).is_file())
 }
 
-/// Whether the folder `run` holds a training run. A run begins with its first checkpoint: a
-/// folder with none (a first session that failed or was killed before it) is not one, so it may
-/// be started again and cannot be resumed.
-#[must_use]
-pub fn holds_run(run: &Path) -> bool {
-    find_checkpoint(&run.join(CHECKPOINTS_DIR).join(LAST)).is_some()
-}
-
-/// Checks the run folder before anything is loaded: a fresh start refuses a folder that holds a
-/// run ([`TrainError::RunExists`]), a resume needs one. Nothing is written: the folder is claimed
-/// (created, its config written) only once the data has loaded, so a failed start leaves nothing
-/// that would block the next one.
-pub fn check_run_folder(run: &Path, resume: bool) -> Result<()> {
-    match (resume, holds_run(run)) {
-        (false, true) => Err(TrainError::RunExists {
-            dir: run.to_path_buf(),
-        }),
-        (true, false) => Err(TrainError::Checkpoint {
-            path: run.join(CHECKPOINTS_DIR).join(LAST),
-            reason: "no checkpoint to resume from (the run never wrote one: start it again \
-                     without --resume)"
-                .into(),
-        }),
-        _ => Ok(()),
-    }
-}
-
 /// Reads a checkpoint's state.
 pub fn read_state(dir: &Path) -> Result<RunState> {
     let path = dir.join(STATE_FILE);
-    let text = std::fs::read_to_string(&path).map_err(|source| TrainError::Io {
-        path: path.clone(),
-        source,
-    })?;
-    let state: RunState = serde_json::from_str(&text).map_err(|e| TrainError::Checkpoint {
+    let text = std::fs::read_to_string(&path).map_err(RunError::io(&path))?;
+    let state: RunState = serde_json::from_str(&text).map_err(|e| RunError::Checkpoint {
         path: path.clone(),
         reason: e.to_string(),
     })?;
     if state.version != STATE_VERSION {
-        return Err(TrainError::Checkpoint {
+        return Err(RunError::Checkpoint {
             path,
             reason: format!(
                 "state version {} (this build reads {STATE_VERSION})",
@@ -246,27 +181,16 @@ pub fn read_state(dir: &Path) -> Result<RunState> {
     Ok(state)
 }
 
-/// Loads a checkpoint for training: the generator (built for `config` on the autodiff device
-/// `device`, then overwritten with the stored tensors and parameter ids), the optimiser state
-/// into `optimizer`, and the run state.
-pub fn load_checkpoint(
-    dir: &Path,
-    config: &GeneratorConfig,
-    optimizer: ModuleOptimizer,
-    device: &Device,
-) -> Result<(Generator, ModuleOptimizer, RunState)> {
-    load_module_checkpoint(dir, config.init(device)?, optimizer)
-}
-
-/// [`load_checkpoint`] for any network: `model` (freshly built with the run's config on the
-/// training device) is overwritten with the stored tensors and parameter ids.
-pub fn load_module_checkpoint<M: ModuleSnapshot>(
+/// Loads a checkpoint for training: `model` (freshly built with the run's config on the
+/// training device) is overwritten with the stored tensors and parameter ids, the optimiser
+/// state is read into `optimizer`, and the run state is returned beside them.
+pub fn load_checkpoint<M: ModuleSnapshot>(
     dir: &Path,
     mut model: M,
     optimizer: ModuleOptimizer,
 ) -> Result<(M, ModuleOptimizer, RunState)> {
     let state = read_state(dir)?;
-    let ck_err = |reason: String| TrainError::Checkpoint {
+    let ck_err = |reason: String| RunError::Checkpoint {
         path: dir.to_path_buf(),
         reason,
     };
@@ -294,8 +218,8 @@ fn sibling(dir: &Path, suffix: &str) -> PathBuf {
     dir.with_file_name(name)
 }
 
-/// Flushes a directory's entries to disk where the platform allows it (best effort: a failure
-/// only weakens the crash guarantee, it does not corrupt anything).
+/// Flushes a directory's files and entries to disk where the platform allows it (best effort:
+/// a failure only weakens the crash guarantee, it does not corrupt anything).
 fn sync_dir(dir: &Path) {
     if let Ok(entries) = std::fs::read_dir(dir) {
         for e in entries.flatten() {

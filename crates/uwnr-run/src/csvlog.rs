@@ -6,13 +6,16 @@ use std::fs::OpenOptions;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use crate::error::{Result, TrainError};
+use crate::error::{Result, RunError};
 
-/// Header of `metrics.csv`.
-pub const METRICS_HEADER: &str =
-    "step,epoch,lr,reconstruction,perceptual,dark_channel,light_field,total,secs_per_step";
 /// Header of `val.csv`.
 pub const VAL_HEADER: &str = "step,epoch,psnr,ssim,secs";
+
+/// Header of `metrics.csv` for a task whose loss columns are `terms`.
+#[must_use]
+pub fn metrics_header(terms: &[&str]) -> String {
+    format!("step,epoch,lr,{},secs_per_step", terms.join(","))
+}
 
 /// An append-only CSV file whose first column is the step.
 #[derive(Debug)]
@@ -24,7 +27,7 @@ impl CsvLog {
     /// Opens (creating with `header` when missing) the log at `path`; rows whose step is
     /// above `keep_up_to` are removed.
     pub fn open(path: &Path, header: &str, keep_up_to: Option<usize>) -> Result<Self> {
-        let io = |source| TrainError::Io {
+        let io = |source| RunError::Io {
             path: path.to_path_buf(),
             source,
         };
@@ -51,7 +54,7 @@ impl CsvLog {
 
     /// Appends one row.
     pub fn append(&self, fields: &[String]) -> Result<()> {
-        let io = |source| TrainError::Io {
+        let io = |source| RunError::Io {
             path: self.path.clone(),
             source,
         };
@@ -64,7 +67,7 @@ impl CsvLog {
 
     /// The numeric rows (header skipped; unparsable fields become NaN).
     pub fn rows(&self) -> Result<Vec<Vec<f64>>> {
-        let text = std::fs::read_to_string(&self.path).map_err(|source| TrainError::Io {
+        let text = std::fs::read_to_string(&self.path).map_err(|source| RunError::Io {
             path: self.path.clone(),
             source,
         })?;
