@@ -35,7 +35,7 @@ use uwnr_model::weights::SOURCE_METADATA_KEY;
 use uwnr_run::checkpoint::{BEST, CHECKPOINTS_DIR, LAST, RunState};
 use uwnr_run::folder::{check_run_folder, check_saved_config};
 use uwnr_run::plan::mix64;
-use uwnr_run::{Event, Prepared, Schedule, Scores, Session, Task, init_seeded};
+use uwnr_run::{Event, Prepared, Schedule, Scores, Session, Task};
 use uwnr_train::Vgg19Features;
 use uwnr_train::losses::{Perceptual, ssim_loss};
 
@@ -395,19 +395,20 @@ impl Task for EnhanceTask<'_> {
             .collect()
     }
 
-    fn init(&self, seeded: bool) -> Result<(ShallowUwnet, ModuleOptimizer)> {
-        let model = if seeded {
-            init_seeded(self.cfg.seed, &self.device, || {
-                self.cfg.model.init(&self.device)
-            })?
-        } else {
-            self.cfg.model.init(&self.device)?
-        };
-        let adam = AdamConfig::new()
+    fn device(&self) -> &Device {
+        &self.device
+    }
+
+    fn build(&self) -> Result<ShallowUwnet> {
+        self.cfg.model.init(&self.device)
+    }
+
+    fn optimizer(&self) -> ModuleOptimizer {
+        AdamConfig::new()
             .with_beta_1(ADAM_BETAS.0)
             .with_beta_2(ADAM_BETAS.1)
-            .with_epsilon(TORCH_ADAM_EPS);
-        Ok((model, adam.init()))
+            .with_epsilon(TORCH_ADAM_EPS)
+            .init()
     }
 
     fn lr(&self, _step: usize, epoch: usize) -> f64 {
@@ -462,23 +463,10 @@ impl Task for EnhanceTask<'_> {
         let mut scores = Scores::default();
         for v in &self.val {
             let out = crate::infer::enhance(model, &v.input, &self.inner)?.quantised();
-            let score = |e: uwnr_metrics::MetricsError| EnhanceError::BadPair {
-                path: PathBuf::from(&v.name),
-                reason: format!("scoring the validation output: {e}"),
-            };
-            let p = uwnr_metrics::psnr(&out, &v.target, uwnr_metrics::DEFAULT_DATA_RANGE)
-                .map_err(score)?;
-            let s = uwnr_metrics::ssim(&out, &v.target, uwnr_metrics::DEFAULT_DATA_RANGE)
-                .map_err(score)?;
-            scores.per_pair.push((v.name.clone(), p, s));
-            if scores.sheet.len() < sheet_rows {
-                let images = vec![v.input.clone(), out, v.target.clone()];
-                scores.sheet.push((v.name.clone(), images));
-            }
+            scores.add(&v.name, out, &v.target, sheet_rows, |out| {
+                vec![v.input.clone(), out, v.target.clone()]
+            })?;
         }
-        let n = scores.per_pair.len().max(1) as f64;
-        scores.psnr = scores.per_pair.iter().map(|r| r.1).sum::<f64>() / n;
-        scores.ssim = scores.per_pair.iter().map(|r| r.2).sum::<f64>() / n;
         Ok(scores)
     }
 

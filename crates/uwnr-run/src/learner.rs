@@ -48,9 +48,15 @@ pub trait Task {
     /// total that was minimised.
     fn loss_terms(&self) -> Vec<(String, String)>;
 
-    /// A new network and optimiser: with the initial weights of the run's seed when `seeded`
-    /// (a fresh run), or to be overwritten by a checkpoint (a resumed one).
-    fn init(&self, seeded: bool) -> Result<(Self::Model, ModuleOptimizer), Self::Error>;
+    /// The autodiff device the network trains on.
+    fn device(&self) -> &Device;
+
+    /// A new network on [`Task::device`] (the loop seeds burn's generator around it for a fresh
+    /// run, [`init_seeded`], and overwrites it from the checkpoint for a resumed one).
+    fn build(&self) -> Result<Self::Model, Self::Error>;
+
+    /// A new optimiser.
+    fn optimizer(&self) -> ModuleOptimizer;
 
     /// The learning rate of step `step` (0-based), which lies in epoch `epoch`.
     fn lr(&self, step: usize, epoch: usize) -> f64;
@@ -91,6 +97,36 @@ pub struct Scores {
     pub per_pair: Vec<(String, f64, f64)>,
     /// Rows of the contact sheet.
     pub sheet: Vec<SheetLine>,
+}
+
+impl Scores {
+    /// Scores one validation pair: PSNR and SSIM of `output` against `target` (data range 1,
+    /// as `uwnr eval` computes them), and a contact-sheet row of `row(output)` while the sheet
+    /// has fewer than `sheet_rows` rows.
+    pub fn add(
+        &mut self,
+        name: &str,
+        output: Image,
+        target: &Image,
+        sheet_rows: usize,
+        row: impl FnOnce(Image) -> Vec<Image>,
+    ) -> Result<(), RunError> {
+        let range = uwnr_metrics::DEFAULT_DATA_RANGE;
+        let bad = |e: uwnr_metrics::MetricsError| RunError::BadImage {
+            path: PathBuf::from(name),
+            reason: format!("scoring the validation output: {e}"),
+        };
+        let psnr = uwnr_metrics::psnr(&output, target, range).map_err(bad)?;
+        let ssim = uwnr_metrics::ssim(&output, target, range).map_err(bad)?;
+        self.per_pair.push((name.to_string(), psnr, ssim));
+        if self.sheet.len() < sheet_rows {
+            self.sheet.push((name.to_string(), row(output)));
+        }
+        let n = self.per_pair.len() as f64;
+        self.psnr = self.per_pair.iter().map(|r| r.1).sum::<f64>() / n;
+        self.ssim = self.per_pair.iter().map(|r| r.2).sum::<f64>() / n;
+        Ok(())
+    }
 }
 
 /// Validation scores of one evaluation.
@@ -264,8 +300,7 @@ pub fn train<T: Task>(
             path: ck_last.clone(),
             reason: "no checkpoint to resume from".into(),
         })?;
-        let (m, o) = task.init(false)?;
-        let (m, o, s) = load_checkpoint(&dir, m, o)?;
+        let (m, o, s) = load_checkpoint(&dir, task.build()?, task.optimizer())?;
         s.check_resumable(&dir, steps_per_epoch, prepared.pairs, schedule.seed)?;
         observer(Event::Message(&format!(
             "resuming at step {} (epoch {}, batch {})",
@@ -273,12 +308,9 @@ pub fn train<T: Task>(
         )));
         (m, o, s)
     } else {
-        let (m, o) = task.init(true)?;
-        (
-            m,
-            o,
-            RunState::start(steps_per_epoch, prepared.pairs, schedule.seed),
-        )
+        let m = init_seeded(schedule.seed, task.device(), || task.build())?;
+        let state = RunState::start(steps_per_epoch, prepared.pairs, schedule.seed);
+        (m, task.optimizer(), state)
     };
     let terms = task.loss_terms();
     let names: Vec<&str> = terms.iter().map(|(c, _)| c.as_str()).collect();
@@ -602,10 +634,4 @@ pub fn init_seeded<M: Module, E>(
     let m = build()?;
     m.visit(&mut Materialise);
     Ok(m)
-}
-
-/// The images of one contact-sheet row, for tasks building [`Scores::sheet`].
-#[must_use]
-pub fn sheet_line(name: &str, images: Vec<Image>) -> SheetLine {
-    (name.to_string(), images)
 }

@@ -21,7 +21,7 @@ use uwnr_model::{
 };
 use uwnr_run::checkpoint::RunState;
 use uwnr_run::folder::{check_run_folder, check_saved_config};
-use uwnr_run::{Event, Prepared, Schedule, Scores, Session, Task, init_seeded};
+use uwnr_run::{Event, Prepared, Schedule, Scores, Session, Task};
 
 use crate::augment::{TARGET_CHANNELS, WATER_VALUES};
 use crate::config::TrainConfig;
@@ -263,20 +263,21 @@ impl Task for UwnrTask<'_> {
             .collect()
     }
 
-    fn init(&self, seeded: bool) -> Result<(Generator, ModuleOptimizer)> {
-        let model = if seeded {
-            init_seeded(self.cfg.seed, &self.device, || {
-                self.cfg.model.init(&self.device)
-            })?
-        } else {
-            self.cfg.model.init(&self.device)?
-        };
-        let adamw = AdamWConfig::new()
+    fn device(&self) -> &Device {
+        &self.device
+    }
+
+    fn build(&self) -> Result<Generator> {
+        Ok(self.cfg.model.init(&self.device)?)
+    }
+
+    fn optimizer(&self) -> ModuleOptimizer {
+        AdamWConfig::new()
             .with_beta_1(self.cfg.betas.0)
             .with_beta_2(self.cfg.betas.1)
             .with_epsilon(self.cfg.epsilon)
-            .with_weight_decay(self.cfg.weight_decay);
-        Ok((model, adamw.init()))
+            .with_weight_decay(self.cfg.weight_decay)
+            .init()
     }
 
     fn lr(&self, step: usize, _epoch: usize) -> f64 {
@@ -306,19 +307,10 @@ impl Task for UwnrTask<'_> {
         let mut scores = Scores::default();
         for (v, style) in self.val.iter().zip(&self.val_styles) {
             let out = g.render(&v.clean, &v.depth, style, &opts)?;
-            let p = uwnr_metrics::psnr(&out, &v.underwater, uwnr_metrics::DEFAULT_DATA_RANGE)
-                .map_err(|e| metric_err(&v.name, &e))?;
-            let s = uwnr_metrics::ssim(&out, &v.underwater, uwnr_metrics::DEFAULT_DATA_RANGE)
-                .map_err(|e| metric_err(&v.name, &e))?;
-            scores.per_pair.push((v.name.clone(), p, s));
-            if scores.sheet.len() < sheet_rows {
-                let images = vec![v.clean.clone(), out, v.underwater.clone()];
-                scores.sheet.push((v.name.clone(), images));
-            }
+            scores.add(&v.name, out, &v.underwater, sheet_rows, |out| {
+                vec![v.clean.clone(), out, v.underwater.clone()]
+            })?;
         }
-        let n = scores.per_pair.len().max(1) as f64;
-        scores.psnr = scores.per_pair.iter().map(|r| r.1).sum::<f64>() / n;
-        scores.ssim = scores.per_pair.iter().map(|r| r.2).sum::<f64>() / n;
         Ok(scores)
     }
 
@@ -340,13 +332,6 @@ impl Task for UwnrTask<'_> {
             &meta,
         )?;
         Ok(())
-    }
-}
-
-fn metric_err(name: &str, e: &uwnr_metrics::MetricsError) -> TrainError {
-    TrainError::BadImage {
-        path: PathBuf::from(name),
-        reason: format!("scoring the validation render: {e}"),
     }
 }
 
