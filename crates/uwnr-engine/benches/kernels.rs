@@ -7,7 +7,7 @@
 //! multiply-accumulates of the direct method, so Winograd shows as more "elements" per second.
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
-use uwnr_engine::{ConvAlgo, EngineOptions, Isa, LayerBench, LayerKind};
+use uwnr_engine::{ConvAlgo, EngineOptions, Isa, LayerBench, LayerKind, Precision};
 
 /// Width of the released network.
 const BASE_WIDTH: usize = 64;
@@ -37,7 +37,11 @@ fn kernels(c: &mut Criterion) {
         group.sample_size(10);
         for isa in Isa::supported() {
             for level in 0..4 {
-                let opts = EngineOptions { isa, algo };
+                let opts = EngineOptions {
+                    isa,
+                    algo,
+                    precision: Precision::F32,
+                };
                 let Ok(mut layer) = LayerBench::new(kind, opts, BASE_WIDTH, level, SIZE) else {
                     continue;
                 };

@@ -25,7 +25,7 @@ pub mod weights;
 mod winograd;
 
 pub use error::{EngineError, Result};
-pub use kernels::{Act, Isa};
+pub use kernels::{Act, Isa, Precision};
 pub use network::{
     ConvAlgo, EngineOptions, Generator, LayerBench, LayerKind, Means, SIZE_MULTIPLE,
 };

@@ -16,7 +16,7 @@ use rayon::prelude::*;
 use crate::conv::Conv;
 use crate::error::{EngineError, Result};
 use crate::kernels::act::{LEAKY_RELU_SLOPE, sigmoid};
-use crate::kernels::{Act, Isa};
+use crate::kernels::{Act, Dot, Isa, Precision};
 use crate::narrow::Narrow;
 use crate::tensor::{Feature, Planar, Pool};
 use crate::weights::{ATTENTION_REDUCTION, ConvWeights, GeneratorWeights, LEVELS};
@@ -49,6 +49,17 @@ pub struct EngineOptions {
     pub isa: Isa,
     /// Algorithm of the stride-1 3x3 convolutions.
     pub algo: ConvAlgo,
+    /// Arithmetic of the Winograd products (the bulk of the work).
+    pub precision: Precision,
+}
+
+impl EngineOptions {
+    /// Whether the bf16 products run on `vdpbf16ps` (AVX512_BF16 with [`Isa::Avx512`]) rather
+    /// than its emulation; `false` for [`Precision::F32`].
+    #[must_use]
+    pub fn native_bf16(&self) -> bool {
+        Dot::new(self.isa, self.precision) == Dot::Bf16Native
+    }
 }
 
 impl Default for EngineOptions {
@@ -56,6 +67,7 @@ impl Default for EngineOptions {
         Self {
             isa: Isa::best(),
             algo: ConvAlgo::Auto,
+            precision: Precision::F32,
         }
     }
 }
@@ -87,8 +99,9 @@ impl Conv3 {
             } else {
                 WinoTile::F4
             };
+            let dot = Dot::new(opts.isa, opts.precision);
             Self::Winograd(Winograd::new(
-                opts.isa, tile, weight, bias, cout, cin, act, order,
+                opts.isa, dot, tile, weight, bias, cout, cin, act, order,
             ))
         } else {
             Self::Direct(Conv::new(
