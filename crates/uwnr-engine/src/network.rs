@@ -105,14 +105,23 @@ impl Conv3 {
             ))
         } else {
             Self::Direct(Conv::new(
-                opts.isa, weight, bias, cout, cin, 3, 1, act, order,
+                opts.isa,
+                Dot::new(opts.isa, opts.precision),
+                weight,
+                bias,
+                cout,
+                cin,
+                3,
+                1,
+                act,
+                order,
             ))
         }
     }
 
     fn run(&self, src: &Feature, dst: &mut Feature, pool: &mut Pool) {
         match self {
-            Self::Direct(c) => c.run(src, dst),
+            Self::Direct(c) => c.run(src, dst, pool),
             Self::Winograd(c) => c.run(src, dst, pool),
             Self::Narrow(c) => c.run(src, dst),
         }
@@ -179,6 +188,7 @@ impl Generator {
                     c,
                     stem: Conv::new(
                         isa,
+                        Dot::new(isa, opts.precision),
                         &d.conv.weight,
                         &d.conv.bias,
                         c,
@@ -189,8 +199,11 @@ impl Generator {
                         None,
                     ),
                     body: Conv3::new(opts, &fused_w, &fused_b, c, c, Act::LeakyRelu, None),
+                    // The 1x1 is small (c -> c / 4) and its input is read once: a bf16 copy
+                    // would cost about what it saves.
                     sa_reduce: Conv::new(
                         isa,
+                        Dot::F32,
                         &b.sa_reduce.weight,
                         &b.sa_reduce.bias,
                         c / ATTENTION_REDUCTION,
@@ -399,7 +412,7 @@ impl Level {
     fn attention_input(&self, x: &Feature, pool: &mut Pool) -> (Feature, Feature) {
         let (ho, wo) = self.stem.out_size(x.h, x.w);
         let mut stem = Feature::output_in(pool, ho, wo, self.c, 1);
-        self.stem.run(x, &mut stem);
+        self.stem.run(x, &mut stem, pool);
         let mut o = Feature::output_in(pool, ho, wo, self.c, 0);
         self.body.run(&stem, &mut o, pool);
         self.spatial_attention(&mut o, pool);
@@ -411,7 +424,7 @@ impl Level {
         let (ho, wo) = (o.h, o.w);
         let r = self.c / ATTENTION_REDUCTION;
         let mut hidden = Feature::output_in(pool, ho, wo, r, 0);
-        self.sa_reduce.run(o, &mut hidden);
+        self.sa_reduce.run(o, &mut hidden, pool);
         let (c, w2, b2) = (self.c, &self.sa_expand, self.sa_expand_bias);
         o.data
             .par_chunks_mut(wo * c)
@@ -550,7 +563,11 @@ impl LayerBench {
     /// Runs the layer once.
     pub fn run(&mut self) {
         match self.kind {
-            LayerKind::Stride2 => self.level.stem.run(&self.input, &mut self.output),
+            LayerKind::Stride2 => {
+                self.level
+                    .stem
+                    .run(&self.input, &mut self.output, &mut self.pool);
+            }
             LayerKind::Block3x3 => {
                 self.level
                     .body

@@ -821,31 +821,21 @@ mod tests {
     ];
     const AT2: [[f64; 4]; 2] = [[1.0, 1.0, 1.0, 0.0], [0.0, 1.0, -1.0, -1.0]];
 
-    /// Unit roundoff of bf16 (8 significant bits, round to nearest).
-    const U_BF16: f64 = 1.0 / 256.0;
-    /// Unit roundoff of f32.
-    const U_F32: f64 = 1.0 / 16_777_216.0;
-
     /// A componentwise bound on `|bf16 Winograd - exact convolution|`, `[cout][h][w]`.
     ///
     /// Output `(r, s)` of a tile is `y = sum_(i,j) AT[r][i] AT[s][j] M_ij` with
-    /// `M_e = sum_k V_ek U_ek` (`k` over `cin`). The kernel multiplies `bf(V_ek) bf(U_ek)`,
-    /// each operand within a relative `u = 2^-8` of its f32 value, and the product of two bf16
-    /// values is exact in f32: each term is off by at most `(2u + u^2) |V_ek U_ek|`. The f32
-    /// sum of `K = cin` terms, in any order (the pairs of `vdpbf16ps`, the blocks of the
-    /// reduction), adds at most `gamma_K = K 2^-24 / (1 - K 2^-24)` of `sum |terms|`. So
-    /// `|M^_e - M_e| <= ((1 + u)^2 (1 + gamma_K) - 1) S_e`, `S_e = sum_k |V_ek| |U_ek|`, and
-    /// `|y^ - y| <= sum_e |AT[r][i] AT[s][j]| (...) S_e`. `V` and `U` are the exact (f64)
-    /// transforms here; the f32 ones differ by a relative ~1e-6, which the factor 1.01 covers,
-    /// and the f32 arithmetic of the transforms, bias and epilogue is covered by adding the
-    /// f32 path's tolerance. The activations are 1-Lipschitz, so the bound holds after them.
+    /// `M_e = sum_k V_ek U_ek` (`k` over `cin`), and each `M_e` is a bf16 dot product:
+    /// `|M^_e - M_e| <= r(cin) S_e` with `S_e = sum_k |V_ek| |U_ek|` ([`bf16::dot_bound`]).
+    /// So `|y^ - y| <= r(cin) sum_e |AT[r][i] AT[s][j]| S_e`, with `V` and `U` the exact (f64)
+    /// transforms here. The f32 arithmetic of the transforms, bias and epilogue is covered by
+    /// adding the f32 path's tolerance; the activations are 1-Lipschitz, so the bound holds
+    /// after them.
     fn bf16_bound(tile: WinoTile, input: &Planar, weight: &[f32], cout: usize) -> Vec<f64> {
         let (cin, h, w) = (input.channels, input.height, input.width);
         let (m, t) = (tile.m(), tile.t());
         let bt = |i: usize, r: usize| if t == 6 { BT4[i][r] } else { BT2[i][r] };
         let at = |r: usize, i: usize| if t == 6 { AT4[r][i] } else { AT2[r][i] };
-        let gamma = cin as f64 * U_F32 / (1.0 - cin as f64 * U_F32);
-        let rel = ((1.0 + U_BF16).powi(2) * (1.0 + gamma) - 1.0) * 1.01;
+        let rel = bf16::dot_bound(cin);
         // |U[co][ci][e]|
         let u: Vec<f64> = (0..cout * cin)
             .flat_map(|oc| {
@@ -917,18 +907,6 @@ mod tests {
         bound
     }
 
-    /// The bf16 kernels this CPU runs, with the instruction sets they run on.
-    fn bf16_variants() -> Vec<(Isa, Dot)> {
-        let mut v: Vec<(Isa, Dot)> = Isa::supported()
-            .into_iter()
-            .map(|i| (i, Dot::Bf16Emulated))
-            .collect();
-        if bf16::native_supported() && Isa::Avx512.is_supported() {
-            v.insert(0, (Isa::Avx512, Dot::Bf16Native));
-        }
-        v
-    }
-
     #[test]
     fn bf16_products_stay_within_the_rounding_bound() {
         // The network's block shapes (c -> c) and a decoder shape (c -> 2c, permuted), at
@@ -942,7 +920,7 @@ mod tests {
             (16, 48, 9, 4, WinoTile::F2),
             (128, 64, 7, 6, WinoTile::F2),
         ];
-        for (isa, dot) in bf16_variants() {
+        for (isa, dot) in bf16::test_variants() {
             for (i, &(cin, cout, h, w, tile)) in cases.iter().enumerate() {
                 let scale = 1.5 / ((9 * cin) as f32).sqrt();
                 let weight = values(i as u64 + 7, cout * cin * 9, scale);

@@ -157,6 +157,37 @@ unsafe fn emulated<const NR: usize>(t: &Tile<'_, u16>) {
     unsafe { epilogue::<NR, _>(t, &mut acc[..t.m]) };
 }
 
+/// The bf16 kernels this CPU runs, with the instruction sets whose tiles they fill: the
+/// emulation on every supported ISA, `vdpbf16ps` on AVX-512 where present.
+#[cfg(test)]
+pub(crate) fn test_variants() -> Vec<(Isa, super::Dot)> {
+    let mut v: Vec<(Isa, super::Dot)> = Isa::supported()
+        .into_iter()
+        .map(|i| (i, super::Dot::Bf16Emulated))
+        .collect();
+    if native_supported() && Isa::Avx512.is_supported() {
+        v.insert(0, (Isa::Avx512, super::Dot::Bf16Native));
+    }
+    v
+}
+
+/// Relative bound `r(K)` on a bf16 dot product of `K` terms: `|s^ - s| <= r(K) sum_k |a_k b_k|`.
+///
+/// Each operand is rounded to the nearest bf16, within a relative `u = 2^-8` (8 significant
+/// bits), and the product of two bf16 values is exact in f32, so each term is off by at most
+/// `(2u + u^2) |a_k b_k|`. Adding `K` terms in f32 in any order (the pairs of `vdpbf16ps`, the
+/// blocks of a split reduction) adds at most `gamma_K = K 2^-24 / (1 - K 2^-24)` of the sum of
+/// their magnitudes (Higham, "Accuracy and Stability of Numerical Algorithms", 3.1). Together:
+/// `r(K) = (1 + u)^2 (1 + gamma_K) - 1`, here with 1% slack for the f32 rounding of the
+/// operands before they are rounded to bf16 (a relative 1e-6 at most in the transforms).
+#[cfg(test)]
+pub(crate) fn dot_bound(k: usize) -> f64 {
+    const U_BF16: f64 = 1.0 / 256.0;
+    const U_F32: f64 = 1.0 / 16_777_216.0;
+    let gamma = k as f64 * U_F32 / (1.0 - k as f64 * U_F32);
+    ((1.0 + U_BF16).powi(2) * (1.0 + gamma) - 1.0) * 1.01
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
