@@ -1,6 +1,8 @@
 //! The AVX512_BF16 micro-kernel: 12 pixels x 32 channels, 24 zmm f32 accumulators, one
 //! `vdpbf16ps` per accumulator and pair of `k` (32 multiply-adds, twice an f32 FMA's), with
-//! the `A` pair broadcast as one 32-bit value. The intrinsics are stable since Rust 1.89.
+//! the `A` pair broadcast as one 32-bit value. The AVX512_BF16 intrinsics, target feature and
+//! run-time detection are stable since Rust 1.89 (the workspace needs 1.95), so no inline
+//! assembly is needed.
 
 use std::arch::x86_64::{
     __m512, __m512bh, __m512i, _mm512_cvtne2ps_pbh, _mm512_dpbf16_ps, _mm512_loadu_ps,
