@@ -49,7 +49,7 @@ pub struct EngineOptions {
     pub isa: Isa,
     /// Algorithm of the stride-1 3x3 convolutions.
     pub algo: ConvAlgo,
-    /// Arithmetic of the Winograd products (the bulk of the work).
+    /// Arithmetic of the Winograd products and direct 3x3 convolutions (the bulk of the work).
     pub precision: Precision,
 }
 

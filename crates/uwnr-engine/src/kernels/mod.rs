@@ -107,14 +107,15 @@ impl Isa {
     }
 }
 
-/// Arithmetic of the heavy products (the Winograd products of the stride-1 3x3 convolutions).
+/// Arithmetic of the heavy products: the Winograd products of the stride-1 3x3 convolutions and
+/// the direct 3x3 convolutions (the stride-2 stems).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
 pub enum Precision {
     /// f32 operands and sums everywhere (the default).
     #[default]
     F32,
-    /// Operands of the Winograd products rounded to bf16 (round to nearest even), products
-    /// and sums in f32; everything else in f32. `vdpbf16ps` on CPUs with AVX512_BF16 (with
+    /// Operands of those products rounded to bf16 (round to nearest even), products and sums
+    /// in f32; everything else (transforms, epilogues, attention, output layer) in f32. `vdpbf16ps` on CPUs with AVX512_BF16 (with
     /// [`Isa::Avx512`]), an emulation of it in f32 arithmetic elsewhere (same rounding of the
     /// operands, no speed-up).
     Bf16,
