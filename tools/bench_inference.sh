@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Forward-pass time of the full-width UWNR generator (one image, seeded random weights) on
-# uwnr's engine (1 and 2 threads), uwnr on burn flex, PyTorch and ONNX Runtime, at 256, 512 and
-# 1024 px, printed as one table with the ratios to ONNX Runtime and the GFLOP/s against the
-# machine's measured FMA peak.
+# uwnr's engine (f32 and bf16 products, 1 and 2 threads), uwnr on burn flex, PyTorch and ONNX
+# Runtime, at 256, 512 and 1024 px, printed as one table with the ratios to ONNX Runtime and
+# the GFLOP/s against the machine's measured FMA peak.
 #
 # Usage, from the repository root:
 #   tools/bench_inference.sh                 # Rust paths only
@@ -30,7 +30,8 @@ echo "== uwnr, $THREADS threads" >&2
 RAYON_NUM_THREADS="$THREADS" "$bin" --runs "$RUNS" --sizes $SIZES "${flex_flag[@]}" | tee -a "$out" >&2
 echo "== uwnr engine, 1 thread" >&2
 RAYON_NUM_THREADS=1 "$bin" --runs "$RUNS" --sizes $SIZES --no-flex \
-    | sed 's/^RESULT engine /RESULT engine-1t /; s/^PEAK /PEAK1 /' | tee -a "$out" >&2
+    | sed 's/^RESULT engine /RESULT engine-1t /; s/^RESULT engine-bf16 /RESULT engine-bf16-1t /; s/^PEAK /PEAK1 /' \
+    | tee -a "$out" >&2
 if [[ -n "${PYTHON:-}" ]]; then
     echo "== PyTorch" >&2
     "$PYTHON" tools/torch_bench.py --runs "$RUNS" --sizes $SIZES | tee -a "$out" >&2
@@ -47,16 +48,22 @@ path, sizes = sys.argv[1], [int(s) for s in sys.argv[2].split()]
 GMAC_256 = 8.6137
 res = defaultdict(dict)
 peak = {}
+bf16_kind = "native"
 for line in open(path):
     f = line.split()
     if f and f[0] == "RESULT":
         res[f[1]][int(f[2])] = float(f[3])
     elif f and f[0] in ("PEAK", "PEAK1"):
         peak[f[0]] = float(f[1])
-order = ["engine", "engine-1t", "flex", "pytorch", "onnxruntime"]
+    elif f and f[0] == "BF16":
+        bf16_kind = f[1]
+order = ["engine", "engine-1t", "engine-bf16", "engine-bf16-1t", "flex", "pytorch", "onnxruntime"]
+bf16 = "bf16" if bf16_kind == "native" else "bf16 emulated"
 names = {
     "engine": "uwnr engine",
     "engine-1t": "uwnr engine, 1 thread",
+    "engine-bf16": f"uwnr engine, {bf16}",
+    "engine-bf16-1t": f"uwnr engine, {bf16}, 1 thread",
     "flex": "uwnr flex (burn)",
     "pytorch": "PyTorch (no_grad)",
     "onnxruntime": "ONNX Runtime (CPU EP)",

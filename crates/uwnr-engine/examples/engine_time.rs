@@ -1,6 +1,8 @@
 //! Times one forward pass of the full-width generator (random weights) on the engine:
-//! `cargo run --release -p uwnr-engine --example engine_time -- [sizes...] [--direct | --f2] [--isa NAME] [--runs N]`.
-//! Prints milliseconds per image (best of the runs) and GFLOP/s against the kernel MAC count.
+//! `cargo run --release -p uwnr-engine --example engine_time -- [sizes...] [--direct | --f2] [--isa NAME] [--precision f32|bf16] [--runs N]`.
+//! Prints milliseconds per image (best and median of the runs) and GFLOP/s against the kernel
+//! MAC count. With `--precision bf16` it also prints the largest and mean absolute difference
+//! of the output from the f32 engine's on the same input.
 //! With `--layers`, also the best time of every layer of the network at each size (the
 //! [`LayerBench`] shapes), to see where a forward pass spends its time.
 
@@ -8,7 +10,7 @@ use std::time::Instant;
 
 use uwnr_engine::{
     ConvAlgo, EngineOptions, Generator, GeneratorWeights, Isa, LEVELS, LayerBench, LayerKind,
-    Means, Planar,
+    Means, Planar, Precision,
 };
 
 /// Kernel multiply-accumulates of the paper's network per pixel of input (8.61 GMac at 256^2).
@@ -50,6 +52,16 @@ fn main() {
                         std::process::exit(2)
                     });
             }
+            "--precision" => {
+                opts.precision = match it.next().map(String::as_str) {
+                    Some("f32") => Precision::F32,
+                    Some("bf16") => Precision::Bf16,
+                    other => {
+                        eprintln!("--precision takes f32 or bf16, not {other:?}");
+                        std::process::exit(2)
+                    }
+                }
+            }
             "--runs" => runs = it.next().and_then(|v| v.parse().ok()).unwrap_or(runs),
             s => sizes.push(s.parse::<usize>().unwrap_or_else(|_| {
                 eprintln!("not a size: {s:?}");
@@ -68,6 +80,18 @@ fn main() {
             std::process::exit(1)
         }
     };
+    let reference = (opts.precision != Precision::F32).then(|| {
+        let f32_opts = EngineOptions {
+            precision: Precision::F32,
+            ..opts
+        };
+        Generator::with_options(&weights, f32_opts).expect("the f32 engine builds where bf16 does")
+    });
+    let precision = match opts.precision {
+        Precision::F32 => "f32".to_string(),
+        Precision::Bf16 if opts.native_bf16() => "bf16 (avx512bf16)".to_string(),
+        Precision::Bf16 => "bf16 (emulated)".to_string(),
+    };
     for size in sizes {
         let x = Planar {
             channels: 7,
@@ -77,24 +101,41 @@ fn main() {
                 .map(|i| (i % 255) as f32 / 255.0)
                 .collect(),
         };
-        let mut best = f64::INFINITY;
+        let mut times = Vec::with_capacity(runs);
         let mut best_cpu = f64::INFINITY;
-        for _ in 0..runs {
+        let mut out = None;
+        for _ in 0..runs.max(1) {
             let (t, c) = (Instant::now(), cpu_seconds());
-            let out = g.forward(&x, Means::Own);
-            let dt = t.elapsed().as_secs_f64();
+            let y = g.forward(&x, Means::Own);
+            times.push(t.elapsed().as_secs_f64());
             best_cpu = best_cpu.min(cpu_seconds() - c);
-            assert!(out.is_ok());
-            best = best.min(dt);
+            out = Some(y.expect("a valid input"));
         }
+        times.sort_by(f64::total_cmp);
+        let (best, median) = (times[0], times[times.len() / 2]);
         let gflops = 2.0 * MACS_PER_PIXEL * (size * size) as f64 / best / 1e9;
         println!(
-            "{size}x{size} {:?} {}: {:.1} ms wall ({gflops:.0} GFLOP/s), {:.1} ms CPU",
+            "{size}x{size} {:?} {} {precision}: {:.1} ms wall best, {:.1} ms median ({gflops:.0} GFLOP/s), {:.1} ms CPU",
             opts.algo,
             opts.isa.name(),
             best * 1e3,
+            median * 1e3,
             best_cpu * 1e3
         );
+        if let (Some(r), Some((y, _))) = (&reference, &out) {
+            let (want, _) = r.forward(&x, Means::Own).expect("a valid input");
+            let diffs: Vec<f32> = y
+                .data
+                .iter()
+                .zip(&want.data)
+                .map(|(a, b)| (a - b).abs())
+                .collect();
+            let max = diffs.iter().copied().fold(0.0f32, f32::max);
+            let mean = diffs.iter().map(|&d| f64::from(d)).sum::<f64>() / diffs.len() as f64;
+            println!(
+                "  output vs f32 engine: max abs {max:.2e}, mean abs {mean:.2e} (output in (-1, 1))"
+            );
+        }
         if layers {
             layer_times(opts, size, runs);
         }

@@ -7,16 +7,22 @@
 //! nine `(offset, weight panel)` pairs of one micro-kernel call and nothing is copied. Work is
 //! split over (output row, panel of `NR` output channels) so both cores stay busy from the
 //! 128-row first level down to the 16-row bottleneck.
+//!
+//! With bf16 products ([`Dot`]) the source map is first rounded into a bf16 copy of the same
+//! geometry, each pixel's channels padded to a whole number of pairs, and the weights are
+//! packed in pairs once (see [`crate::kernels::bf16`]); sums and epilogue stay f32.
 
 use rayon::prelude::*;
 
-use crate::kernels::{Act, Isa, Tile, run_tile};
-use crate::tensor::{Feature, SharedMut};
+use crate::kernels::bf16::{self, padded};
+use crate::kernels::{Act, Dot, Isa, Tile, run_tile, run_tile_bf16};
+use crate::tensor::{Feature, Pool, SharedMut};
 
 /// A convolution packed for one instruction set.
 #[derive(Clone, Debug)]
 pub(crate) struct Conv {
     pub isa: Isa,
+    pub dot: Dot,
     pub cin: usize,
     pub cout: usize,
     /// 1 or 3.
@@ -24,8 +30,10 @@ pub(crate) struct Conv {
     /// 1 or 2.
     pub stride: usize,
     pub act: Act,
-    /// `[panel][tap][cin][NR]`.
+    /// `[panel][tap][cin][NR]` (empty for bf16 products).
     panels: Vec<f32>,
+    /// `[panel][tap][padded(cin) / 2][NR][2]` bf16 (empty for f32 products).
+    panels_bf16: Vec<u16>,
     /// `[panel][NR]`.
     bias: Vec<f32>,
 }
@@ -36,6 +44,7 @@ impl Conv {
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         isa: Isa,
+        dot: Dot,
         weight: &[f32],
         bias: &[f32],
         cout: usize,
@@ -61,14 +70,24 @@ impl Conv {
                 }
             }
         }
+        let mut panels_bf16 = Vec::new();
+        if dot.is_bf16() {
+            panels_bf16.reserve(panels_n * taps * padded(cin) * nr);
+            for block in panels.chunks_exact(cin * nr) {
+                panels_bf16.extend(bf16::pack_pairs(block, cin, nr));
+            }
+            panels = Vec::new();
+        }
         Self {
             isa,
+            dot,
             cin,
             cout,
             k,
             stride,
             act,
             panels,
+            panels_bf16,
             bias: packed_bias,
         }
     }
@@ -83,8 +102,12 @@ impl Conv {
     }
 
     /// Writes the convolution of `src` into `dst` (interior, `dst.c == cout`). A 3x3 kernel
-    /// needs `src.pad == 1`.
-    pub fn run(&self, src: &Feature, dst: &mut Feature) {
+    /// needs `src.pad == 1`. The bf16 copy of `src` lives in a buffer of `pool`.
+    pub fn run(&self, src: &Feature, dst: &mut Feature, pool: &mut Pool) {
+        if self.dot.is_bf16() {
+            self.run_bf16(src, dst, pool);
+            return;
+        }
         debug_assert_eq!(src.c, self.cin);
         debug_assert_eq!(dst.c, self.cout);
         debug_assert!(self.k == 1 || src.pad == 1);
@@ -146,6 +169,89 @@ impl Conv {
     }
 }
 
+impl Conv {
+    /// [`Conv::run`] with bf16 operands.
+    fn run_bf16(&self, src: &Feature, dst: &mut Feature, pool: &mut Pool) {
+        debug_assert_eq!((src.c, dst.c), (self.cin, self.cout));
+        debug_assert!(self.k == 1 || src.pad == 1);
+        let (ho, wo) = self.out_size(src.h, src.w);
+        debug_assert_eq!((dst.h, dst.w), (ho, wo));
+        let (cin, kp) = (self.cin, padded(self.cin));
+        // The source's every pixel (border included), `kp` bf16 values each.
+        let pixels = src.data.len() / cin;
+        let mut buf = pool.take_stale((pixels * kp).div_ceil(2));
+        // SAFETY: the f32 buffer holds at least pixels * kp bf16 values; u16 is less aligned.
+        let a =
+            unsafe { std::slice::from_raw_parts_mut(buf.as_mut_ptr().cast::<u16>(), pixels * kp) };
+        let native = self.dot == Dot::Bf16Native;
+        let row_px = src.row_stride() / cin;
+        a.par_chunks_mut(row_px * kp)
+            .zip(src.data.par_chunks(row_px * cin))
+            .for_each(|(dst_row, src_row)| {
+                if kp == cin {
+                    // SAFETY: `native` only where the CPU has AVX512_BF16.
+                    unsafe { bf16::round_run(native, src_row, dst_row) };
+                } else {
+                    for (d, s) in dst_row.chunks_exact_mut(kp).zip(src_row.chunks_exact(cin)) {
+                        // SAFETY: as above.
+                        unsafe { bf16::round_run(native, s, d) };
+                    }
+                }
+            });
+        let (isa, dot) = (self.isa, self.dot);
+        let (nr, mr) = (isa.nr(), isa.mr());
+        // Offsets in the bf16 copy: a pixel's kp values where the f32 map has cin.
+        let at = |f32_index: usize| f32_index / cin * kp;
+        let taps: Vec<isize> = if self.k == 3 {
+            (0..3)
+                .flat_map(|ky| (0..3).map(move |kx| (ky, kx)))
+                .map(|(ky, kx)| (ky * row_px * kp + kx * kp) as isize)
+                .collect()
+        } else {
+            vec![0]
+        };
+        let lda = self.stride * kp;
+        let panel_len = taps.len() * kp * nr;
+        let out = SharedMut(dst.data.as_mut_ptr());
+        let dst_rows: Vec<usize> = (0..ho).map(|y| dst.at(y, 0)).collect();
+        let npanels = self.panels();
+        let a: &[u16] = a;
+        (0..ho * npanels).into_par_iter().for_each(|item| {
+            let (y, p) = (item / npanels, item % npanels);
+            let a_row = if self.k == 3 {
+                self.stride * y * row_px * kp
+            } else {
+                at(src.at(self.stride * y, 0))
+            };
+            let n = (self.cout - p * nr).min(nr);
+            let mut x = 0;
+            while x < wo {
+                let m = (wo - x).min(mr);
+                let tile = Tile {
+                    // SAFETY (pointer arithmetic): inside the bf16 copy, which has the f32
+                    // map's geometry.
+                    a: unsafe { a.as_ptr().add(a_row + x * lda) },
+                    lda,
+                    taps: &taps,
+                    k: kp,
+                    b: unsafe { self.panels_bf16.as_ptr().add(p * panel_len) },
+                    bias: unsafe { self.bias.as_ptr().add(p * nr) },
+                    c: unsafe { out.get().add(dst_rows[y] + x * self.cout + p * nr) },
+                    ldc: self.cout,
+                    m,
+                    n,
+                    act: self.act,
+                    accumulate: false,
+                };
+                // SAFETY: as in `run`, on the bf16 copy; `dot` is a bf16 kernel the CPU runs.
+                unsafe { run_tile_bf16(isa, dot, &tile) };
+                x += m;
+            }
+        });
+        pool.give_vec(buf);
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -175,11 +281,22 @@ mod tests {
                 };
                 let want = reference::conv2d(&input, &weight, &bias, cout, k, stride);
                 let want = reference::activate(act, want);
-                let conv = Conv::new(isa, &weight, &bias, cout, cin, k, stride, act, None);
+                let conv = Conv::new(
+                    isa,
+                    Dot::F32,
+                    &weight,
+                    &bias,
+                    cout,
+                    cin,
+                    k,
+                    stride,
+                    act,
+                    None,
+                );
                 let src = Feature::from_planar(&input, k / 2);
                 let (ho, wo) = conv.out_size(h, w);
                 let mut dst = Feature::zeros(ho, wo, cout, 1);
-                conv.run(&src, &mut dst);
+                conv.run(&src, &mut dst, &mut Pool::default());
                 let got = dst.to_planar();
                 assert_eq!((got.height, got.width), (want.height, want.width));
                 let diff = reference::max_abs_diff(&got.data, &want.data);
@@ -187,6 +304,66 @@ mod tests {
                 // The border stays zero.
                 let border: f32 = dst.data[..dst.row_stride()].iter().map(|v| v.abs()).sum();
                 assert_eq!(border, 0.0);
+            }
+        }
+    }
+
+    #[test]
+    fn bf16_variants_stay_within_the_rounding_bound() {
+        // The network's stride-2 shapes (7 -> 64 with an odd, padded cin; c -> 2c) at odd
+        // sizes, a 1x1 and a stride-1 3x3.
+        let cases = [
+            (7, 64, 3, 2, 13, 10, Act::Elu),
+            (64, 128, 3, 2, 9, 11, Act::Elu),
+            (256, 512, 3, 2, 4, 6, Act::Elu),
+            (24, 6, 1, 1, 3, 29, Act::LeakyRelu),
+            (33, 40, 3, 1, 5, 7, Act::Tanh),
+        ];
+        for (isa, dot) in bf16::test_variants() {
+            for (i, &(cin, cout, k, stride, h, w, act)) in cases.iter().enumerate() {
+                let scale = 1.5 / ((cin * k * k) as f32).sqrt();
+                let weight = lcg(i as u64 + 11, cout * cin * k * k, scale);
+                let bias = lcg(i as u64 + 110, cout, 0.1);
+                let input = Planar {
+                    channels: cin,
+                    height: h,
+                    width: w,
+                    data: lcg(i as u64 + 210, cin * h * w, 1.0),
+                };
+                let want = reference::activate(
+                    act,
+                    reference::conv2d(&input, &weight, &bias, cout, k, stride),
+                );
+                // |error| <= r(K) sum |x w| (bf16::dot_bound), K = cin k^2: the reference
+                // convolution of the magnitudes, without bias.
+                let abs = |v: &[f32]| v.iter().map(|x| x.abs()).collect::<Vec<f32>>();
+                let magnitude = Planar {
+                    data: abs(&input.data),
+                    ..input.clone()
+                };
+                let zero = vec![0.0; cout];
+                let sums = reference::conv2d(&magnitude, &abs(&weight), &zero, cout, k, stride);
+                let rel = bf16::dot_bound(cin * k * k);
+                let run = |dot| {
+                    let conv = Conv::new(isa, dot, &weight, &bias, cout, cin, k, stride, act, None);
+                    let src = Feature::from_planar(&input, k / 2);
+                    let (ho, wo) = conv.out_size(h, w);
+                    let mut dst = Feature::zeros(ho, wo, cout, 1);
+                    conv.run(&src, &mut dst, &mut Pool::default());
+                    dst.to_planar()
+                };
+                let (got, exact) = (run(dot), run(Dot::F32));
+                let mut ratio = 0.0f64;
+                for ((g, e), s) in got.data.iter().zip(&want.data).zip(&sums.data) {
+                    let err = (f64::from(*g) - f64::from(*e)).abs();
+                    ratio = ratio.max(err / (rel * f64::from(*s) + 1e-5));
+                }
+                assert!(
+                    ratio <= 1.0,
+                    "{isa:?} {dot:?} case {i}: {ratio:.2} of the bound"
+                );
+                let moved = reference::max_abs_diff(&got.data, &exact.data);
+                assert!(moved > 1e-5, "{isa:?} {dot:?} case {i}: bf16 equals f32");
             }
         }
     }

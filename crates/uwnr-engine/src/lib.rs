@@ -11,6 +11,10 @@
 //! PixelShuffle channel order are fused into the convolutions. Every operation has a plain
 //! reference implementation in [`reference`] that the kernels are tested against.
 //!
+//! [`Precision::Bf16`] (off by default) rounds the operands of the Winograd products and of the
+//! stride-2 convolutions to bf16 and sums in f32: `vdpbf16ps` where the CPU has AVX512_BF16, an
+//! emulation with the same rounding elsewhere.
+//!
 //! The crate knows nothing of files or of any ML framework: weights come in as
 //! [`GeneratorWeights`] (PyTorch layout), images as [`Planar`] tensors.
 
@@ -25,7 +29,7 @@ pub mod weights;
 mod winograd;
 
 pub use error::{EngineError, Result};
-pub use kernels::{Act, Isa};
+pub use kernels::{Act, Isa, Precision};
 pub use network::{
     ConvAlgo, EngineOptions, Generator, LayerBench, LayerKind, Means, SIZE_MULTIPLE,
 };

@@ -16,7 +16,7 @@ use rayon::prelude::*;
 use crate::conv::Conv;
 use crate::error::{EngineError, Result};
 use crate::kernels::act::{LEAKY_RELU_SLOPE, sigmoid};
-use crate::kernels::{Act, Isa};
+use crate::kernels::{Act, Dot, Isa, Precision};
 use crate::narrow::Narrow;
 use crate::tensor::{Feature, Planar, Pool};
 use crate::weights::{ATTENTION_REDUCTION, ConvWeights, GeneratorWeights, LEVELS};
@@ -49,6 +49,17 @@ pub struct EngineOptions {
     pub isa: Isa,
     /// Algorithm of the stride-1 3x3 convolutions.
     pub algo: ConvAlgo,
+    /// Arithmetic of the Winograd products and direct 3x3 convolutions (the bulk of the work).
+    pub precision: Precision,
+}
+
+impl EngineOptions {
+    /// Whether the bf16 products run on `vdpbf16ps` (AVX512_BF16 with [`Isa::Avx512`]) rather
+    /// than its emulation; `false` for [`Precision::F32`].
+    #[must_use]
+    pub fn native_bf16(&self) -> bool {
+        Dot::new(self.isa, self.precision) == Dot::Bf16Native
+    }
 }
 
 impl Default for EngineOptions {
@@ -56,6 +67,7 @@ impl Default for EngineOptions {
         Self {
             isa: Isa::best(),
             algo: ConvAlgo::Auto,
+            precision: Precision::F32,
         }
     }
 }
@@ -87,19 +99,29 @@ impl Conv3 {
             } else {
                 WinoTile::F4
             };
+            let dot = Dot::new(opts.isa, opts.precision);
             Self::Winograd(Winograd::new(
-                opts.isa, tile, weight, bias, cout, cin, act, order,
+                opts.isa, dot, tile, weight, bias, cout, cin, act, order,
             ))
         } else {
             Self::Direct(Conv::new(
-                opts.isa, weight, bias, cout, cin, 3, 1, act, order,
+                opts.isa,
+                Dot::new(opts.isa, opts.precision),
+                weight,
+                bias,
+                cout,
+                cin,
+                3,
+                1,
+                act,
+                order,
             ))
         }
     }
 
     fn run(&self, src: &Feature, dst: &mut Feature, pool: &mut Pool) {
         match self {
-            Self::Direct(c) => c.run(src, dst),
+            Self::Direct(c) => c.run(src, dst, pool),
             Self::Winograd(c) => c.run(src, dst, pool),
             Self::Narrow(c) => c.run(src, dst),
         }
@@ -166,6 +188,7 @@ impl Generator {
                     c,
                     stem: Conv::new(
                         isa,
+                        Dot::new(isa, opts.precision),
                         &d.conv.weight,
                         &d.conv.bias,
                         c,
@@ -176,8 +199,11 @@ impl Generator {
                         None,
                     ),
                     body: Conv3::new(opts, &fused_w, &fused_b, c, c, Act::LeakyRelu, None),
+                    // The 1x1 is small (c -> c / 4) and its input is read once: a bf16 copy
+                    // would cost about what it saves.
                     sa_reduce: Conv::new(
                         isa,
+                        Dot::F32,
                         &b.sa_reduce.weight,
                         &b.sa_reduce.bias,
                         c / ATTENTION_REDUCTION,
@@ -386,7 +412,7 @@ impl Level {
     fn attention_input(&self, x: &Feature, pool: &mut Pool) -> (Feature, Feature) {
         let (ho, wo) = self.stem.out_size(x.h, x.w);
         let mut stem = Feature::output_in(pool, ho, wo, self.c, 1);
-        self.stem.run(x, &mut stem);
+        self.stem.run(x, &mut stem, pool);
         let mut o = Feature::output_in(pool, ho, wo, self.c, 0);
         self.body.run(&stem, &mut o, pool);
         self.spatial_attention(&mut o, pool);
@@ -398,7 +424,7 @@ impl Level {
         let (ho, wo) = (o.h, o.w);
         let r = self.c / ATTENTION_REDUCTION;
         let mut hidden = Feature::output_in(pool, ho, wo, r, 0);
-        self.sa_reduce.run(o, &mut hidden);
+        self.sa_reduce.run(o, &mut hidden, pool);
         let (c, w2, b2) = (self.c, &self.sa_expand, self.sa_expand_bias);
         o.data
             .par_chunks_mut(wo * c)
@@ -537,7 +563,11 @@ impl LayerBench {
     /// Runs the layer once.
     pub fn run(&mut self) {
         match self.kind {
-            LayerKind::Stride2 => self.level.stem.run(&self.input, &mut self.output),
+            LayerKind::Stride2 => {
+                self.level
+                    .stem
+                    .run(&self.input, &mut self.output, &mut self.pool);
+            }
             LayerKind::Block3x3 => {
                 self.level
                     .body

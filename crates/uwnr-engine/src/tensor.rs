@@ -194,19 +194,25 @@ impl Pool {
 }
 
 /// A pointer that may be shared between the threads writing disjoint parts of one buffer.
-#[derive(Clone, Copy)]
-pub(crate) struct SharedMut(pub *mut f32);
-impl SharedMut {
+pub(crate) struct SharedMut<T = f32>(pub *mut T);
+impl<T> SharedMut<T> {
     /// The pointer (a method, so closures capture the whole `Sync` wrapper).
-    pub fn get(self) -> *mut f32 {
+    pub fn get(self) -> *mut T {
         self.0
     }
 }
 
+impl<T> Clone for SharedMut<T> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+impl<T> Copy for SharedMut<T> {}
+
 // SAFETY: users write disjoint ranges only (each parallel work item owns its output range).
-unsafe impl Send for SharedMut {}
+unsafe impl<T> Send for SharedMut<T> {}
 // SAFETY: as above.
-unsafe impl Sync for SharedMut {}
+unsafe impl<T> Sync for SharedMut<T> {}
 
 #[cfg(test)]
 mod tests {

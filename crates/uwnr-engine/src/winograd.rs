@@ -10,10 +10,15 @@
 //! tiles. Transforms read tiles inside the map where they lie and write `V` and the output
 //! pixels in place; a chunk of tiles is sized so that large transformed weights stream from
 //! memory once per layer.
+//!
+//! With bf16 products ([`Dot`]), `U` is rounded once when the layer is packed and each run of
+//! `V` when the input transform writes it (in pairs along `cin`, see
+//! [`crate::kernels::bf16`]); the transforms, the sums and the output transform stay f32.
 
 use rayon::prelude::*;
 
-use crate::kernels::{Act, Isa, Tile, act, run_tile};
+use crate::kernels::bf16::{self, padded};
+use crate::kernels::{Act, Dot, Isa, Tile, act, run_tile, run_tile_bf16};
 use crate::tensor::{Feature, Pool, SharedMut};
 
 /// Below these channel counts the transforms cost more than the products they save.
@@ -26,6 +31,8 @@ const CHUNK_BYTES: usize = 8 << 20;
 const MAX_CHUNK_BYTES: usize = 64 << 20;
 /// Reduction block of the products: `KC x NR` weights (32 KiB for AVX-512) stay in L1.
 const KC: usize = 192;
+/// The same for bf16 weights (half the bytes per value; even).
+const KC_BF16: usize = 2 * KC;
 /// Chunk size bounds, in tiles.
 const MIN_CHUNK: usize = 48;
 const MAX_CHUNK: usize = 4096;
@@ -85,12 +92,15 @@ impl WinoTile {
 #[derive(Clone, Debug)]
 pub(crate) struct Winograd {
     isa: Isa,
+    dot: Dot,
     tile: WinoTile,
     cin: usize,
     cout: usize,
     act: Act,
-    /// `[e][panel][cin][NR]`.
+    /// `[e][panel][cin][NR]` (empty for bf16 products).
     u: Vec<f32>,
+    /// `[e][panel][padded(cin) / 2][NR][2]` bf16 (empty for f32 products).
+    u_bf16: Vec<u16>,
     /// `cout` biases in packed order.
     bias: Vec<f32>,
 }
@@ -106,6 +116,7 @@ impl Winograd {
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         isa: Isa,
+        dot: Dot,
         tile: WinoTile,
         weight: &[f32],
         bias: &[f32],
@@ -155,13 +166,23 @@ impl Winograd {
                 }
             }
         }
+        let mut u_bf16 = Vec::new();
+        if dot.is_bf16() {
+            u_bf16.reserve(e_n * panels * padded(cin) * nr);
+            for panel in u.chunks_exact(cin * nr) {
+                u_bf16.extend(bf16::pack_pairs(panel, cin, nr));
+            }
+            u = Vec::new();
+        }
         Self {
             isa,
+            dot,
             tile,
             cin,
             cout,
             act,
             u,
+            u_bf16,
             bias: packed_bias,
         }
     }
@@ -189,18 +210,42 @@ impl Winograd {
         debug_assert_eq!((src.h, src.w), (dst.h, dst.w));
         let (ty, tx) = (src.h.div_ceil(M), src.w.div_ceil(M));
         let tiles = ty * tx;
-        let per_tile = e_n * (self.cin + self.cout) * std::mem::size_of::<f32>();
-        let budget =
-            (2 * self.u.len() * std::mem::size_of::<f32>()).clamp(CHUNK_BYTES, MAX_CHUNK_BYTES);
+        let bf = self.dot.is_bf16();
+        // Values of V per tile and product, and bytes per value of V and U.
+        let (kv, elem) = if bf {
+            (padded(self.cin), std::mem::size_of::<u16>())
+        } else {
+            (self.cin, std::mem::size_of::<f32>())
+        };
+        let per_tile = e_n * (kv * elem + self.cout * std::mem::size_of::<f32>());
+        let u_bytes = (self.u.len() + self.u_bf16.len()) * elem;
+        let budget = (2 * u_bytes).clamp(CHUNK_BYTES, MAX_CHUNK_BYTES);
         let chunk = (budget / per_tile).clamp(MIN_CHUNK, MAX_CHUNK).min(tiles);
-        // Every run of V and M a product reads is written first, so stale buffers do.
-        let mut v = pool.take_stale(e_n * chunk * self.cin);
+        // Every run of V and M a product reads is written first, so stale buffers do. A bf16
+        // V lives in an f32 buffer of half the length.
+        let v_len = e_n * chunk * kv;
+        let mut v = pool.take_stale(if bf { v_len.div_ceil(2) } else { v_len });
         let mut m = pool.take_stale(e_n * chunk * self.cout);
         let mut start = 0;
         while start < tiles {
             let n = chunk.min(tiles - start);
-            self.input_transform::<M, T>(src, tx, start, n, chunk, &mut v);
-            self.products(T * T, &v, &mut m, n, chunk);
+            let out = if bf {
+                VOut::Bf16 {
+                    v: SharedMut(v.as_mut_ptr().cast::<u16>()),
+                    native: self.dot == Dot::Bf16Native,
+                }
+            } else {
+                VOut::F32(SharedMut(v.as_mut_ptr()))
+            };
+            self.input_transform::<M, T>(src, tx, start, n, chunk, out);
+            if bf {
+                // SAFETY: the f32 buffer holds v_len.div_ceil(2) floats, so 2 x that bf16
+                // values; u16 is less aligned than f32.
+                let vb = unsafe { std::slice::from_raw_parts(v.as_ptr().cast::<u16>(), v_len) };
+                self.products_bf16(e_n, vb, &mut m, n, chunk);
+            } else {
+                self.products(e_n, &v, &mut m, n, chunk);
+            }
             self.output_transform::<M, T>(&m, dst, tx, start, n, chunk);
             start += n;
         }
@@ -208,7 +253,8 @@ impl Winograd {
         pool.give_vec(m);
     }
 
-    /// `V[e][t][ci]` for tiles `start .. start + n`.
+    /// `V[e][t][ci]` for tiles `start .. start + n`, into `out` (a buffer of
+    /// `E * chunk` runs of `cin` floats, or of `padded(cin)` bf16 values).
     fn input_transform<const M: usize, const T: usize>(
         &self,
         src: &Feature,
@@ -216,14 +262,13 @@ impl Winograd {
         start: usize,
         n: usize,
         chunk: usize,
-        v: &mut [f32],
+        out: VOut,
     ) {
         let cin = self.cin;
-        let vp = SharedMut(v.as_mut_ptr());
         let isa = self.isa;
         let stride = src.row_stride();
         (0..n).into_par_iter().for_each_init(
-            || Scratch::new(T * T * cin),
+            || Scratch::new(T * T * cin, (T * T + T) * cin),
             |sc, t| {
                 let Scratch { a: d, b: s } = sc;
                 let tile = start + t;
@@ -247,8 +292,9 @@ impl Winograd {
                     }
                     (&d[..], T * cin)
                 };
-                // SAFETY: tile t owns V[e][t][..] for every e; the ISA is supported.
-                unsafe { transform_input::<T>(isa, tile_src, tile_stride, s, vp, t, chunk, cin) };
+                // SAFETY: tile t owns V[e][t][..] for every e; the ISA is supported, and the
+                // CPU has AVX512_BF16 if `out` asks for its rounding.
+                unsafe { transform_input::<T>(isa, tile_src, tile_stride, s, out, t, chunk, cin) };
             },
         );
     }
@@ -298,6 +344,50 @@ impl Winograd {
         });
     }
 
+    /// [`Self::products`] on bf16 `V` (`[e][t][padded(cin)]`) and `U`.
+    fn products_bf16(&self, e_n: usize, v: &[u16], m: &mut [f32], n: usize, chunk: usize) {
+        let (cout, isa, dot) = (self.cout, self.isa, self.dot);
+        let kp = padded(self.cin);
+        let (nr, mr) = (isa.nr(), isa.mr());
+        let panels = cout.div_ceil(nr);
+        let zero_bias = [0.0f32; crate::kernels::MAX_NR];
+        let mp = SharedMut(m.as_mut_ptr());
+        let taps = [0isize];
+        (0..e_n * panels).into_par_iter().for_each(|item| {
+            let (e, p) = (item / panels, item % panels);
+            let cols = (cout - p * nr).min(nr);
+            let mut kb = 0;
+            while kb < kp {
+                let kc = KC_BF16.min(kp - kb);
+                let mut t = 0;
+                while t < n {
+                    let rows = (n - t).min(mr);
+                    let tile = Tile {
+                        // SAFETY (pointer arithmetic): inside V, U and M by their shapes; kb
+                        // is even, so `kb * nr` starts pair kb / 2 of the `[k / 2][NR][2]`
+                        // panel.
+                        a: unsafe { v.as_ptr().add((e * chunk + t) * kp + kb) },
+                        lda: kp,
+                        taps: &taps,
+                        k: kc,
+                        b: unsafe { self.u_bf16.as_ptr().add(((e * panels + p) * kp + kb) * nr) },
+                        bias: zero_bias.as_ptr(),
+                        c: unsafe { mp.get().add((e * chunk + t) * cout + p * nr) },
+                        ldc: cout,
+                        m: rows,
+                        n: cols,
+                        act: Act::Identity,
+                        accumulate: kb > 0,
+                    };
+                    // SAFETY: as in `products`; `dot` is a bf16 kernel the CPU runs.
+                    unsafe { run_tile_bf16(isa, dot, &tile) };
+                    t += rows;
+                }
+                kb += kc;
+            }
+        });
+    }
+
     /// `A^T M A` + bias, activation, into the valid pixels of each output tile.
     fn output_transform<const M: usize, const T: usize>(
         &self,
@@ -315,7 +405,7 @@ impl Winograd {
         let origin = dst.at(0, 0);
         let (isa, act, bias) = (self.isa, self.act, &self.bias[..]);
         (0..n).into_par_iter().for_each_init(
-            || Scratch::new(T * T * cout),
+            || Scratch::new(T * T * cout, T * T * cout),
             |sc, t| {
                 let tile = start + t;
                 let (oy, ox) = ((tile / tx) * M, (tile % tx) * M);
@@ -344,6 +434,15 @@ struct OutTile {
     cols: usize,
 }
 
+/// Where the input transform writes `V`.
+#[derive(Clone, Copy)]
+enum VOut {
+    /// `[e][t][cin]` f32.
+    F32(SharedMut),
+    /// `[e][t][padded(cin)]` bf16, rounded with `vcvtne2ps2bf16` if `native`.
+    Bf16 { v: SharedMut<u16>, native: bool },
+}
+
 /// Per-thread scratch of the transforms.
 struct Scratch {
     a: Vec<f32>,
@@ -351,10 +450,10 @@ struct Scratch {
 }
 
 impl Scratch {
-    fn new(n: usize) -> Self {
+    fn new(a: usize, b: usize) -> Self {
         Self {
-            a: vec![0.0; n],
-            b: vec![0.0; n],
+            a: vec![0.0; a],
+            b: vec![0.0; b],
         }
     }
 }
@@ -370,7 +469,7 @@ unsafe fn transform_input<const T: usize>(
     d: &[f32],
     stride: usize,
     s: &mut [f32],
-    v: SharedMut,
+    v: VOut,
     t: usize,
     chunk: usize,
     cin: usize,
@@ -391,7 +490,7 @@ unsafe fn input_avx512<const T: usize>(
     d: &[f32],
     stride: usize,
     s: &mut [f32],
-    v: SharedMut,
+    v: VOut,
     t: usize,
     chunk: usize,
     cin: usize,
@@ -405,7 +504,7 @@ unsafe fn input_avx2<const T: usize>(
     d: &[f32],
     stride: usize,
     s: &mut [f32],
-    v: SharedMut,
+    v: VOut,
     t: usize,
     chunk: usize,
     cin: usize,
@@ -464,7 +563,7 @@ fn bt6(x: [&[f32]; 6], y: [&mut [f32]; 6], n: usize) {
 }
 
 /// `V = B^T d B` of one tile, written straight into its runs of `V`; `s` is scratch of
-/// `E * cin`.
+/// `E * cin` and `T * cin` more (a row of runs before their rounding to bf16).
 ///
 /// # Safety
 /// As [`transform_input`].
@@ -473,7 +572,7 @@ unsafe fn input_generic<const T: usize>(
     d: &[f32],
     stride: usize,
     s: &mut [f32],
-    v: SharedMut,
+    v: VOut,
     t: usize,
     chunk: usize,
     cin: usize,
@@ -486,14 +585,40 @@ unsafe fn input_generic<const T: usize>(
         bt::<T>(x, y, cin);
     }
     // Along the rows: V[i][j] = sum_col BT[j][col] s[col][i].
+    let (s, row) = s.split_at_mut(T * T * cin);
     let s: &[f32] = s;
     for i in 0..T {
         let x: [&[f32]; T] = std::array::from_fn(|col| &s[(col * T + i) * cin..][..cin]);
-        // SAFETY: V[i * T + j][t] (j < T) are this tile's own runs of cin floats.
-        let y: [&mut [f32]; T] = std::array::from_fn(|j| unsafe {
-            std::slice::from_raw_parts_mut(v.get().add(((i * T + j) * chunk + t) * cin), cin)
-        });
-        bt::<T>(x, y, cin);
+        match v {
+            VOut::F32(v) => {
+                // SAFETY: V[i * T + j][t] (j < T) are this tile's own runs of cin floats.
+                let y: [&mut [f32]; T] = std::array::from_fn(|j| unsafe {
+                    std::slice::from_raw_parts_mut(
+                        v.get().add(((i * T + j) * chunk + t) * cin),
+                        cin,
+                    )
+                });
+                bt::<T>(x, y, cin);
+            }
+            VOut::Bf16 { v, native } => {
+                // One row of T runs in f32 scratch, then rounded into V.
+                let mut runs = row.chunks_exact_mut(cin);
+                let y: [&mut [f32]; T] = std::array::from_fn(|_| runs.next().expect("T runs"));
+                bt::<T>(x, y, cin);
+                let kp = padded(cin);
+                for (j, run) in row.chunks_exact(cin).take(T).enumerate() {
+                    // SAFETY: V[i * T + j][t] is this tile's own run of padded(cin) values;
+                    // `native` only where the CPU has AVX512_BF16.
+                    unsafe {
+                        let dst = std::slice::from_raw_parts_mut(
+                            v.get().add(((i * T + j) * chunk + t) * kp),
+                            kp,
+                        );
+                        bf16::round_run(native, run, dst);
+                    }
+                }
+            }
+        }
     }
 }
 
@@ -673,6 +798,182 @@ mod tests {
     use crate::reference::{self, test_values as values};
     use crate::tensor::Planar;
 
+    /// `B^T` and `A^T` of F(4, 3) and F(2, 3), as `bt6` / `at6` and `bt4` / `at4` apply them.
+    const BT4: [[f64; 6]; 6] = [
+        [4.0, 0.0, -5.0, 0.0, 1.0, 0.0],
+        [0.0, -4.0, -4.0, 1.0, 1.0, 0.0],
+        [0.0, 4.0, -4.0, -1.0, 1.0, 0.0],
+        [0.0, -2.0, -1.0, 2.0, 1.0, 0.0],
+        [0.0, 2.0, -1.0, -2.0, 1.0, 0.0],
+        [0.0, 4.0, 0.0, -5.0, 0.0, 1.0],
+    ];
+    const AT4: [[f64; 6]; 4] = [
+        [1.0, 1.0, 1.0, 1.0, 1.0, 0.0],
+        [0.0, 1.0, -1.0, 2.0, -2.0, 0.0],
+        [0.0, 1.0, 1.0, 4.0, 4.0, 0.0],
+        [0.0, 1.0, -1.0, 8.0, -8.0, 1.0],
+    ];
+    const BT2: [[f64; 4]; 4] = [
+        [1.0, 0.0, -1.0, 0.0],
+        [0.0, 1.0, 1.0, 0.0],
+        [0.0, -1.0, 1.0, 0.0],
+        [0.0, 1.0, 0.0, -1.0],
+    ];
+    const AT2: [[f64; 4]; 2] = [[1.0, 1.0, 1.0, 0.0], [0.0, 1.0, -1.0, -1.0]];
+
+    /// A componentwise bound on `|bf16 Winograd - exact convolution|`, `[cout][h][w]`.
+    ///
+    /// Output `(r, s)` of a tile is `y = sum_(i,j) AT[r][i] AT[s][j] M_ij` with
+    /// `M_e = sum_k V_ek U_ek` (`k` over `cin`), and each `M_e` is a bf16 dot product:
+    /// `|M^_e - M_e| <= r(cin) S_e` with `S_e = sum_k |V_ek| |U_ek|` ([`bf16::dot_bound`]).
+    /// So `|y^ - y| <= r(cin) sum_e |AT[r][i] AT[s][j]| S_e`, with `V` and `U` the exact (f64)
+    /// transforms here. The f32 arithmetic of the transforms, bias and epilogue is covered by
+    /// adding the f32 path's tolerance; the activations are 1-Lipschitz, so the bound holds
+    /// after them.
+    fn bf16_bound(tile: WinoTile, input: &Planar, weight: &[f32], cout: usize) -> Vec<f64> {
+        let (cin, h, w) = (input.channels, input.height, input.width);
+        let (m, t) = (tile.m(), tile.t());
+        let bt = |i: usize, r: usize| if t == 6 { BT4[i][r] } else { BT2[i][r] };
+        let at = |r: usize, i: usize| if t == 6 { AT4[r][i] } else { AT2[r][i] };
+        let rel = bf16::dot_bound(cin);
+        // |U[co][ci][e]|
+        let u: Vec<f64> = (0..cout * cin)
+            .flat_map(|oc| {
+                let g = &weight[oc * 9..oc * 9 + 9];
+                let gg: Vec<f64> = (0..t * 3)
+                    .map(|x| {
+                        let (i, kx) = (x / 3, x % 3);
+                        (0..3)
+                            .map(|ky| tile.g(i, ky) * f64::from(g[ky * 3 + kx]))
+                            .sum()
+                    })
+                    .collect();
+                (0..t * t).map(move |e| {
+                    let (i, j) = (e / t, e % t);
+                    (0..3)
+                        .map(|kx| gg[i * 3 + kx] * tile.g(j, kx))
+                        .sum::<f64>()
+                        .abs()
+                })
+            })
+            .collect();
+        let mut bound = vec![0.0f64; cout * h * w];
+        let px = |c: usize, y: isize, x: isize| -> f64 {
+            if y < 0 || x < 0 || y >= h as isize || x >= w as isize {
+                0.0
+            } else {
+                f64::from(input.data[(c * h + y as usize) * w + x as usize])
+            }
+        };
+        for oy in (0..h).step_by(m) {
+            for ox in (0..w).step_by(m) {
+                // |V[ci][e]| of this tile.
+                let v: Vec<f64> = (0..cin)
+                    .flat_map(|ci| {
+                        let d = move |r: usize, c: usize| {
+                            px(ci, (oy + r) as isize - 1, (ox + c) as isize - 1)
+                        };
+                        (0..t * t).map(move |e| {
+                            let (i, j) = (e / t, e % t);
+                            let mut acc = 0.0;
+                            for r in 0..t {
+                                for c in 0..t {
+                                    acc += bt(i, r) * d(r, c) * bt(j, c);
+                                }
+                            }
+                            acc.abs()
+                        })
+                    })
+                    .collect();
+                for co in 0..cout {
+                    let s_e: Vec<f64> = (0..t * t)
+                        .map(|e| {
+                            (0..cin)
+                                .map(|ci| v[ci * t * t + e] * u[(co * cin + ci) * t * t + e])
+                                .sum()
+                        })
+                        .collect();
+                    for r in 0..m.min(h - oy) {
+                        for sx in 0..m.min(w - ox) {
+                            let b: f64 = (0..t * t)
+                                .map(|e| (at(r, e / t) * at(sx, e % t)).abs() * s_e[e])
+                                .sum();
+                            bound[(co * h + oy + r) * w + ox + sx] = rel * b;
+                        }
+                    }
+                }
+            }
+        }
+        bound
+    }
+
+    #[test]
+    fn bf16_products_stay_within_the_rounding_bound() {
+        // The network's block shapes (c -> c) and a decoder shape (c -> 2c, permuted), at
+        // sizes that are not multiples of 4; an odd cin (a padded pair); F(2x2) on two.
+        let cases = [
+            (64, 64, 13, 19, WinoTile::F4),
+            (128, 128, 9, 7, WinoTile::F4),
+            (256, 512, 5, 6, WinoTile::F4),
+            (512, 512, 4, 5, WinoTile::F4),
+            (17, 24, 3, 5, WinoTile::F4),
+            (16, 48, 9, 4, WinoTile::F2),
+            (128, 64, 7, 6, WinoTile::F2),
+        ];
+        for (isa, dot) in bf16::test_variants() {
+            for (i, &(cin, cout, h, w, tile)) in cases.iter().enumerate() {
+                let scale = 1.5 / ((9 * cin) as f32).sqrt();
+                let weight = values(i as u64 + 7, cout * cin * 9, scale);
+                let bias = values(i as u64 + 70, cout, 0.1);
+                let input = Planar {
+                    channels: cin,
+                    height: h,
+                    width: w,
+                    data: values(i as u64 + 700, cin * h * w, 1.0),
+                };
+                let order: Vec<usize> = (0..cout).map(|n| (n * 5) % cout).collect();
+                let order = if cout % 5 == 0 {
+                    None
+                } else {
+                    Some(&order[..])
+                };
+                let want = reference::activate(
+                    Act::Elu,
+                    reference::conv2d(&input, &weight, &bias, cout, 3, 1),
+                );
+                let bound = bf16_bound(tile, &input, &weight, cout);
+                let run = |dot| {
+                    let conv =
+                        Winograd::new(isa, dot, tile, &weight, &bias, cout, cin, Act::Elu, order);
+                    let src = Feature::from_planar(&input, 1);
+                    let mut dst = Feature::zeros(h, w, cout, 1);
+                    conv.run(&src, &mut dst, &mut Pool::default());
+                    dst.to_planar()
+                };
+                let (got, exact) = (run(dot), run(Dot::F32));
+                let plane = h * w;
+                let (mut worst, mut ratio, mut moved) = (0.0f64, 0.0f64, 0.0f32);
+                for n in 0..cout {
+                    let o = order.map_or(n, |o| o[n]);
+                    for p in 0..plane {
+                        let g = got.data[n * plane + p];
+                        let err = (f64::from(g) - f64::from(want.data[o * plane + p])).abs();
+                        let b = bound[o * plane + p] + 2e-5;
+                        worst = worst.max(err);
+                        ratio = ratio.max(err / b);
+                        moved = moved.max((g - exact.data[n * plane + p]).abs());
+                    }
+                }
+                assert!(
+                    ratio <= 1.0,
+                    "{isa:?} {dot:?} case {i}: error {worst:e} is {ratio:.2} of its bound"
+                );
+                // The operands really are rounded: bf16 differs from the f32 path.
+                assert!(moved > 1e-4, "{isa:?} {dot:?} case {i}: bf16 equals f32");
+            }
+        }
+    }
+
     #[test]
     fn every_isa_matches_the_reference() {
         // Sizes that are not multiples of 4 (partial tiles) and channel counts around the
@@ -701,8 +1002,17 @@ mod tests {
                     Act::Elu,
                     reference::conv2d(&input, &weight, &bias, cout, 3, 1),
                 );
-                let conv =
-                    Winograd::new(isa, tile, &weight, &bias, cout, cin, Act::Elu, Some(&order));
+                let conv = Winograd::new(
+                    isa,
+                    Dot::F32,
+                    tile,
+                    &weight,
+                    &bias,
+                    cout,
+                    cin,
+                    Act::Elu,
+                    Some(&order),
+                );
                 let src = Feature::from_planar(&input, 1);
                 let mut dst = Feature::zeros(h, w, cout, 1);
                 conv.run(&src, &mut dst, &mut Pool::default());

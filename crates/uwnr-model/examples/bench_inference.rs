@@ -1,11 +1,13 @@
 //! Forward-pass time of the full-width UWNR generator (seeded random weights) on the engine
-//! and on burn's flex backend, for `tools/bench_inference.sh`:
+//! (f32, and with bf16 Winograd products) and on burn's flex backend, for
+//! `tools/bench_inference.sh`:
 //! `cargo run --release -p uwnr-model --example bench_inference -- [--runs N] [--sizes 256 512] [--no-flex]`.
 //!
 //! Threads come from rayon (`RAYON_NUM_THREADS`). Prints the median of the timed runs after one
 //! warm-up, one `RESULT <path> <size> <ms>` line per measurement, and `PEAK <GFLOP/s>`: the FP32
 //! FMA throughput of this machine on that many threads (independent FMA chains on the widest
-//! vectors the CPU has).
+//! vectors the CPU has). `BF16 native|emulated` says whether the bf16 engine ran on
+//! `vdpbf16ps` or on its emulation.
 
 // The peak measurement calls `std::arch` FMA intrinsics, which are unsafe.
 #![allow(unsafe_code)]
@@ -15,7 +17,7 @@ use std::time::Instant;
 
 use burn::tensor::{Distribution, Tensor};
 use rayon::prelude::*;
-use uwnr_engine::{Means, Planar};
+use uwnr_engine::{EngineOptions, Means, Planar, Precision};
 use uwnr_model::network::engine_weights;
 use uwnr_model::weights::generator_to_tensors;
 use uwnr_model::{Device, GeneratorConfig, gmacs};
@@ -41,6 +43,10 @@ fn time<F: FnMut()>(runs: usize, mut f: F) -> f64 {
 /// Chains of FMAs per thread (enough to cover the FMA latency on two pipes).
 #[cfg(target_arch = "x86_64")]
 const CHAINS: usize = 16;
+/// AVX2 has 16 ymm registers: 12 chains plus the two operands fit without spills (16 chains
+/// did not, and measured half the peak).
+#[cfg(target_arch = "x86_64")]
+const CHAINS_AVX2: usize = 12;
 #[cfg(target_arch = "x86_64")]
 const PEAK_ITERS: usize = 20_000_000;
 
@@ -63,13 +69,13 @@ fn fma_chains_avx512(b: f32) -> f32 {
     _mm512_reduce_add_ps(sum)
 }
 
-/// As [`fma_chains_avx512`] on 8-lane AVX2 vectors.
+/// As [`fma_chains_avx512`] on 8-lane AVX2 vectors, with [`CHAINS_AVX2`] chains.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 fn fma_chains_avx2(b: f32) -> f32 {
     use std::arch::x86_64::{_mm256_add_ps, _mm256_fmadd_ps, _mm256_set1_ps, _mm256_storeu_ps};
     let (b, c) = (_mm256_set1_ps(b), _mm256_set1_ps(1e-4));
-    let mut acc = [_mm256_set1_ps(1.0); CHAINS];
+    let mut acc = [_mm256_set1_ps(1.0); CHAINS_AVX2];
     for _ in 0..PEAK_ITERS {
         for a in &mut acc {
             *a = _mm256_fmadd_ps(*a, b, c);
@@ -113,7 +119,8 @@ fn peak_gflops() -> Option<f64> {
             })
             .sum();
         black_box(s);
-        let flops = (threads * PEAK_ITERS * CHAINS * lanes * 2) as f64;
+        let chains = if lanes == 16 { CHAINS } else { CHAINS_AVX2 };
+        let flops = (threads * PEAK_ITERS * chains * lanes * 2) as f64;
         Some(flops / t.elapsed().as_secs_f64() / 1e9)
     }
     #[cfg(not(target_arch = "x86_64"))]
@@ -154,10 +161,23 @@ fn main() {
     let tensors = generator_to_tensors(&g, &config).expect("tensors");
     let (weights, _) = engine_weights(&config, tensors).expect("engine weights");
     let engine = uwnr_engine::Generator::new(&weights).expect("engine");
+    let bf16_opts = EngineOptions {
+        precision: Precision::Bf16,
+        ..EngineOptions::default()
+    };
+    let engine_bf16 = uwnr_engine::Generator::with_options(&weights, bf16_opts).expect("engine");
     println!(
         "threads {}, engine ISA {}",
         rayon::current_num_threads(),
         engine.options().isa.name()
+    );
+    println!(
+        "BF16 {}",
+        if bf16_opts.native_bf16() {
+            "native"
+        } else {
+            "emulated"
+        }
     );
     if let Some(p) = peak_gflops() {
         println!("PEAK {p:.1}");
@@ -180,6 +200,14 @@ fn main() {
             gflop / ms * 1e3
         );
         println!("RESULT engine {size} {ms:.2}");
+        let ms = time(runs, || {
+            black_box(engine_bf16.forward(&x, Means::Own).expect("forward"));
+        });
+        println!(
+            "engine bf16 {size}x{size}: {ms:.1} ms, {:.0} GFLOP/s",
+            gflop / ms * 1e3
+        );
+        println!("RESULT engine-bf16 {size} {ms:.2}");
         if flex {
             let t =
                 Tensor::<4>::random([1, 7, size, size], Distribution::Uniform(0.0, 1.0), &device);

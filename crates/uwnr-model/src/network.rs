@@ -7,7 +7,7 @@ use std::path::Path;
 use std::sync::Arc;
 
 use uwnr_core::Image;
-use uwnr_engine::{ConvWeights, GeneratorWeights};
+use uwnr_engine::{ConvWeights, EngineOptions, GeneratorWeights, Precision};
 
 use crate::config::{ATTENTION_REDUCTION, GeneratorConfig, LEVELS};
 use crate::error::{ModelError, Result};
@@ -23,8 +23,12 @@ use crate::weights::{
 /// Which implementation runs the generator.
 #[derive(Clone, Debug)]
 pub enum Backend {
-    /// The dedicated CPU engine (fastest; inference only).
+    /// The dedicated CPU engine (fastest exact path; inference only).
     Engine,
+    /// The engine with the Winograd products in bf16 with f32 sums: faster on CPUs with
+    /// AVX512_BF16 (emulated, so no faster, elsewhere), outputs a little off `Engine`'s (see
+    /// the README's bf16 figures).
+    EngineBf16,
     /// burn's module on this device (`flex`, `tch`).
     Burn(burn::tensor::Device),
 }
@@ -91,9 +95,18 @@ impl Network {
         backend: &Backend,
     ) -> Result<(Self, Vec<String>)> {
         let (imp, ignored) = match backend {
-            Backend::Engine => {
+            Backend::Engine | Backend::EngineBf16 => {
                 let (weights, ignored) = engine_weights(config, tensors)?;
-                let engine = uwnr_engine::Generator::new(&weights)?;
+                let precision = if matches!(backend, Backend::EngineBf16) {
+                    Precision::Bf16
+                } else {
+                    Precision::F32
+                };
+                let opts = EngineOptions {
+                    precision,
+                    ..EngineOptions::default()
+                };
+                let engine = uwnr_engine::Generator::with_options(&weights, opts)?;
                 (Imp::Engine(Arc::new(engine)), ignored)
             }
             Backend::Burn(device) => {
@@ -140,7 +153,7 @@ impl Network {
                     device: device.clone(),
                 },
             }),
-            Backend::Engine => {
+            Backend::Engine | Backend::EngineBf16 => {
                 let tensors = generator_to_tensors(generator, config)?;
                 Ok(Self::from_tensors(config, tensors, backend)?.0)
             }
@@ -153,10 +166,13 @@ impl Network {
         &self.config
     }
 
-    /// The backend's name (`engine`, `flex`, `tch`).
+    /// The backend's name (`engine`, `engine (bf16)`, `flex`, `tch`).
     #[must_use]
     pub fn backend_name(&self) -> String {
         match &self.imp {
+            Imp::Engine(e) if e.options().precision == Precision::Bf16 => {
+                format!("{ENGINE_NAME} (bf16)")
+            }
             Imp::Engine(_) => ENGINE_NAME.to_string(),
             Imp::Burn { device, .. } => format!("{device:?}"),
         }

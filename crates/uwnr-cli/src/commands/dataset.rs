@@ -52,7 +52,7 @@ fn renderer(a: &DatasetMakeArgs) -> Result<Renderer> {
     if let Some(method) = super::method::baseline_method(a.method, &a.baseline, have_refs)? {
         return Ok(Renderer::Baseline(method));
     }
-    super::network_renderer(&a.model)
+    super::network_renderer_at(&a.model, a.precision)
 }
 
 fn make(a: &DatasetMakeArgs) -> Result<ExitCode> {

@@ -24,7 +24,7 @@ use anyhow::{Context, Result, bail};
 use uwnr_depth::DepthSource;
 use uwnr_model::{Backend, Device, Generator, GeneratorConfig, Network, WeightsInfo};
 
-use crate::cli::{Cli, Command, DepthOpts, DeviceArg};
+use crate::cli::{Cli, Command, DepthOpts, DeviceArg, PrecisionArg};
 
 /// Runs the parsed command line.
 pub fn run(cli: Cli) -> Result<ExitCode> {
@@ -57,6 +57,17 @@ pub fn backend(arg: DeviceArg) -> Result<Backend> {
     match arg {
         DeviceArg::Engine => Ok(Backend::Engine),
         DeviceArg::Flex | DeviceArg::Tch => Ok(Backend::Burn(device(arg)?)),
+    }
+}
+
+/// [`backend`] at `precision`: bf16 exists on the engine only, so it is refused elsewhere.
+pub fn backend_at(arg: DeviceArg, precision: PrecisionArg) -> Result<Backend> {
+    match (arg, precision) {
+        (_, PrecisionArg::F32) => backend(arg),
+        (DeviceArg::Engine, PrecisionArg::Bf16) => Ok(Backend::EngineBf16),
+        (DeviceArg::Flex | DeviceArg::Tch, PrecisionArg::Bf16) => {
+            bail!("--precision bf16 runs on the engine only: drop --device or pass --precision f32")
+        }
     }
 }
 
@@ -156,7 +167,15 @@ pub fn progress_bar(template: &str) -> ProgressBar {
 /// The UWNR network as a dataset renderer: `--weights` or the bundled model, with the weight
 /// bytes fingerprinted into the dataset's settings.
 pub fn network_renderer(model: &crate::cli::ModelOpts) -> Result<uwnr_dataset::Renderer> {
-    let backend = backend(model.device)?;
+    network_renderer_at(model, PrecisionArg::F32)
+}
+
+/// [`network_renderer`] at `precision`.
+pub fn network_renderer_at(
+    model: &crate::cli::ModelOpts,
+    precision: PrecisionArg,
+) -> Result<uwnr_dataset::Renderer> {
+    let backend = backend_at(model.device, precision)?;
     let (network, _info, source) = load_network(model.weights.as_deref(), &backend)?;
     let bytes = match &model.weights {
         Some(p) => std::fs::read(p).with_context(|| format!("reading {}", p.display()))?,

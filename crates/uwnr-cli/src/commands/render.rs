@@ -83,7 +83,7 @@ pub fn run(a: &RenderArgs) -> Result<ExitCode> {
             seed: a.seed,
         },
         None => {
-            let backend = super::backend(a.model.device)?;
+            let backend = super::backend_at(a.model.device, a.precision)?;
             let (network, _info, _source) =
                 super::load_network(a.model.weights.as_deref(), &backend)?;
             Renderer::Network {

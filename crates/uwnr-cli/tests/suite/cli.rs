@@ -537,3 +537,42 @@ fn options_that_do_not_apply_to_the_method_are_refused() {
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
 }
+
+#[test]
+fn bf16_precision_renders_on_the_engine_and_is_refused_elsewhere() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out.png");
+    let (clean, reference, w) = (
+        sample("clean-statues.jpg"),
+        sample("ref-blue.jpg"),
+        weights(),
+    );
+    let args = |extra: &[&'static str]| {
+        let mut a = vec![
+            "render",
+            s(&clean),
+            "--reference",
+            s(&reference),
+            "--weights",
+            s(&w),
+            "--output",
+            s(&out),
+        ];
+        a.extend_from_slice(extra);
+        a
+    };
+    let o = uwnr(&args(&["--precision", "bf16"]));
+    assert!(o.status.success(), "{}", stderr(&o));
+    let img = image::open(&out).unwrap();
+    assert_eq!((img.width(), img.height()), (321, 481));
+    std::fs::remove_file(&out).unwrap();
+    let o = uwnr(&args(&["--precision", "bf16", "--device", "flex"]));
+    assert!(!o.status.success());
+    let err = stderr(&o);
+    assert!(
+        err.contains("--precision bf16 runs on the engine only"),
+        "{err}"
+    );
+    assert_eq!(err.trim().lines().count(), 1, "one line: {err}");
+    assert!(!out.exists());
+}

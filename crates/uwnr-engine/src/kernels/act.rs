@@ -33,15 +33,22 @@ const EXP_P: [f32; 6] = [
 #[must_use]
 pub fn exp(x: f32) -> f32 {
     let x = x.clamp(EXP_LO, EXP_HI);
-    let n = (x * LOG2E + ROUND_MAGIC) - ROUND_MAGIC;
+    let shifted = x * LOG2E + ROUND_MAGIC;
+    let n = shifted - ROUND_MAGIC;
     let r = x - n * LN2_HI - n * LN2_LO;
     let mut p = EXP_P[0];
     for c in &EXP_P[1..] {
         p = p * r + c;
     }
     let e = p * r * r + r + 1.0;
-    // n is an integer in [-126, 127]; 2^n from the exponent field.
-    let bits = ((n as i32 + 127) as u32) << 23;
+    // n is an integer in [-126, 127], held in the low mantissa bits of `shifted` (whose bits
+    // are those of ROUND_MAGIC plus n): 2^n from the exponent field by integer arithmetic,
+    // which vectorises where the saturating `n as i32` does not.
+    let bits = (shifted
+        .to_bits()
+        .wrapping_sub(ROUND_MAGIC.to_bits())
+        .wrapping_add(127))
+        << 23;
     e * f32::from_bits(bits)
 }
 

@@ -56,5 +56,5 @@ unsafe fn tile_m<const M: usize>(t: &Tile<'_>) {
         }
     }
     // SAFETY: caller's contract on the output range.
-    unsafe { epilogue::<NR>(t, &mut buf) };
+    unsafe { epilogue::<NR, _>(t, &mut buf) };
 }

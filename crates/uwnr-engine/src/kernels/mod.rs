@@ -12,12 +12,19 @@
 //! The instruction set is chosen at run time ([`Isa::best`]); every variant computes the same
 //! sums in the same order per output (up to FMA contraction) and is tested against
 //! [`crate::reference`].
+//!
+//! With [`Precision::Bf16`] the heavy products take `A` and `B` as bf16 pairs along `k`
+//! ([`bf16`]), accumulated in f32: `vdpbf16ps` where the CPU has AVX512_BF16, an emulation in
+//! plain f32 arithmetic elsewhere.
 
 pub mod act;
 #[cfg(target_arch = "x86_64")]
 mod avx2;
 #[cfg(target_arch = "x86_64")]
 mod avx512;
+#[cfg(target_arch = "x86_64")]
+mod avx512bf16;
+pub(crate) mod bf16;
 mod portable;
 
 /// Largest tile width of any variant.
@@ -100,6 +107,59 @@ impl Isa {
     }
 }
 
+/// Arithmetic of the heavy products: the Winograd products of the stride-1 3x3 convolutions and
+/// the direct 3x3 convolutions (the stride-2 stems).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
+pub enum Precision {
+    /// f32 operands and sums everywhere (the default).
+    #[default]
+    F32,
+    /// Operands of those products rounded to bf16 (round to nearest even), products and sums
+    /// in f32; everything else (transforms, epilogues, attention, output layer) in f32. `vdpbf16ps` on CPUs with AVX512_BF16 (with
+    /// [`Isa::Avx512`]), an emulation of it in f32 arithmetic elsewhere (same rounding of the
+    /// operands, no speed-up).
+    Bf16,
+}
+
+impl Precision {
+    /// Lower-case name (`f32`, `bf16`).
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Precision::F32 => "f32",
+            Precision::Bf16 => "bf16",
+        }
+    }
+}
+
+/// How one product's dot products are computed: the f32 kernels of the instruction set, or
+/// one of the two bf16 kernels. Tiles are `isa.mr() x isa.nr()` in every case.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Dot {
+    /// f32 operands on the [`Isa`]'s kernel.
+    F32,
+    /// bf16 pairs on `vdpbf16ps` (AVX512_BF16; only with [`Isa::Avx512`]).
+    Bf16Native,
+    /// bf16 pairs widened to f32 and multiplied in f32 (any CPU).
+    Bf16Emulated,
+}
+
+impl Dot {
+    /// The kernel for `precision` on `isa`: native bf16 only where the CPU has it.
+    pub fn new(isa: Isa, precision: Precision) -> Self {
+        match precision {
+            Precision::F32 => Self::F32,
+            Precision::Bf16 if isa == Isa::Avx512 && bf16::native_supported() => Self::Bf16Native,
+            Precision::Bf16 => Self::Bf16Emulated,
+        }
+    }
+
+    /// Whether the operands are bf16.
+    pub fn is_bf16(self) -> bool {
+        self != Self::F32
+    }
+}
+
 /// The activation of a convolution's epilogue.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Act {
@@ -115,10 +175,13 @@ pub enum Act {
 
 /// One tile's operands. Raw pointers because tiles of one output are written from several
 /// threads; the caller guarantees the ranges are valid and disjoint.
+///
+/// `E` is the element of `A` and `B`: `f32`, or `u16` holding bf16 bits for the bf16 products,
+/// where `k` and `lda` are even and `B` is packed `[tap][k / 2][NR][2]` (see [`bf16`]).
 #[derive(Clone, Copy)]
-pub(crate) struct Tile<'a> {
+pub(crate) struct Tile<'a, E = f32> {
     /// `A` at row 0, before the tap offset.
-    pub a: *const f32,
+    pub a: *const E,
     /// Floats between consecutive rows of `A`.
     pub lda: usize,
     /// Offset of each tap's `A` from `a`, in floats.
@@ -126,7 +189,7 @@ pub(crate) struct Tile<'a> {
     /// Reduction length per tap.
     pub k: usize,
     /// Packed `B` panel, `[taps][k][NR]`.
-    pub b: *const f32,
+    pub b: *const E,
     /// `NR` biases (zero-padded).
     pub bias: *const f32,
     /// Output row 0.
@@ -169,7 +232,7 @@ pub(crate) unsafe fn run_tile(isa: Isa, t: &Tile<'_>) {
 /// # Safety
 /// As [`run_tile`] for `t.c`.
 #[inline(always)]
-pub(crate) unsafe fn epilogue<const NR: usize>(t: &Tile<'_>, buf: &mut [[f32; NR]]) {
+pub(crate) unsafe fn epilogue<const NR: usize, E>(t: &Tile<'_, E>, buf: &mut [[f32; NR]]) {
     for (row, vals) in buf.iter_mut().enumerate().take(t.m) {
         if t.accumulate {
             for (n, v) in vals.iter_mut().enumerate().take(t.n) {
@@ -194,5 +257,22 @@ pub(crate) unsafe fn epilogue<const NR: usize>(t: &Tile<'_>, buf: &mut [[f32; NR
                 }
             }
         }
+    }
+}
+
+/// Runs one tile of bf16 operands with kernel `dot` (a bf16 one) for `isa`'s tile shape.
+///
+/// # Safety
+/// As [`run_tile`], with `k` and `lda` even and the ranges counted in bf16 elements; `dot`
+/// must be [`Dot::Bf16Native`] only where [`bf16::native_supported`] and `isa` is AVX-512.
+pub(crate) unsafe fn run_tile_bf16(isa: Isa, dot: Dot, t: &Tile<'_, u16>) {
+    debug_assert!(t.m >= 1 && t.m <= isa.mr() && t.n >= 1 && t.n <= isa.nr());
+    debug_assert!(t.k.is_multiple_of(2) && t.lda.is_multiple_of(2));
+    match dot {
+        // SAFETY: forwarded contract; the CPU has AVX512_BF16 and the tile is 12 x 32.
+        #[cfg(target_arch = "x86_64")]
+        Dot::Bf16Native => unsafe { avx512bf16::tile(t) },
+        // SAFETY: forwarded contract.
+        _ => unsafe { bf16::emulated_tile(isa, t) },
     }
 }

@@ -33,5 +33,5 @@ unsafe fn tile_m<const M: usize>(t: &Tile<'_>) {
             }
         }
     }
-    unsafe { epilogue::<NR>(t, &mut acc) };
+    unsafe { epilogue::<NR, _>(t, &mut acc) };
 }
