@@ -30,12 +30,13 @@ use burn::tensor::{Device, Tensor, TensorData};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
-use uwnr_core::io::DecodeLimits;
 use uwnr_model::weights::SOURCE_METADATA_KEY;
+/// Where and how to train (what is not part of the run's config).
+pub use uwnr_run::TrainOptions as EnhanceTrainOptions;
 use uwnr_run::checkpoint::{BEST, CHECKPOINTS_DIR, LAST, RunState};
 use uwnr_run::folder::{check_run_folder, check_saved_config};
 use uwnr_run::plan::mix64;
-use uwnr_run::{Event, Prepared, Schedule, Scores, Session, Task};
+use uwnr_run::{Event, Prepared, Schedule, Scores, Task};
 use uwnr_train::Vgg19Features;
 use uwnr_train::losses::{Perceptual, ssim_loss};
 
@@ -216,44 +217,6 @@ impl EnhanceTrainConfig {
     }
 }
 
-/// Where and how to train (what is not part of the run's config).
-#[derive(Clone, Debug)]
-pub struct EnhanceTrainOptions {
-    /// Training folders (`underwater/` + `clean/`, or `raw-890/` + `reference-890/`).
-    pub data: Vec<PathBuf>,
-    /// Validation folder (same layouts), scored at native resolution.
-    pub val: Option<PathBuf>,
-    /// The run folder.
-    pub run_dir: PathBuf,
-    /// Continue the run in `run_dir` from its last checkpoint.
-    pub resume: bool,
-    /// VGG19 weights (safetensors, torchvision keys) for the perceptual term.
-    pub vgg19: Option<PathBuf>,
-    /// Compute device (without autodiff; training enables it).
-    pub device: Device,
-    /// Stop (with a checkpoint) after this many steps in this session.
-    pub max_steps: Option<usize>,
-    /// Image decoding limits.
-    pub limits: DecodeLimits,
-}
-
-impl EnhanceTrainOptions {
-    /// Options with defaults for everything but the data, the run folder and the device.
-    #[must_use]
-    pub fn new(data: Vec<PathBuf>, run_dir: PathBuf, device: Device) -> Self {
-        Self {
-            data,
-            val: None,
-            run_dir,
-            resume: false,
-            vgg19: None,
-            device,
-            max_steps: None,
-            limits: DecodeLimits::default(),
-        }
-    }
-}
-
 /// How a session ended.
 #[derive(Clone, Debug, PartialEq)]
 pub struct EnhanceTrainSummary {
@@ -343,12 +306,7 @@ pub fn train(
         checkpoint_every_secs: cfg.checkpoint_every_secs,
         prefetch_batches: cfg.prefetch_batches,
     };
-    let session = Session {
-        run_dir: run.clone(),
-        resume: opts.resume,
-        max_steps: opts.max_steps,
-        val_refs: Vec::new(),
-    };
+    let session = opts.session();
     let s = uwnr_run::train(
         &task, source, &prepared, &schedule, &session, stop, observer,
     )?;

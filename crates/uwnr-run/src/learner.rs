@@ -18,6 +18,7 @@ use burn::optim::ModuleOptimizer;
 use burn::store::ModuleSnapshot;
 use burn::tensor::{Device, Tensor};
 use uwnr_core::Image;
+use uwnr_core::io::DecodeLimits;
 
 use crate::checkpoint::{
     BEST, CHECKPOINTS_DIR, LAST, RunState, find_checkpoint, load_checkpoint, save_checkpoint,
@@ -171,6 +172,59 @@ pub struct Schedule {
     pub checkpoint_every_secs: u64,
     /// Batches prepared ahead of the step.
     pub prefetch_batches: usize,
+}
+
+/// Where and how a trainer runs (what is not part of the run's config): its data, its run
+/// folder, this session's limits. Every trainer takes these.
+#[derive(Clone, Debug)]
+pub struct TrainOptions {
+    /// Training folders (`underwater/` + `clean/`, or `raw-890/` + `reference-890/`).
+    pub data: Vec<PathBuf>,
+    /// Validation folder (same layouts), scored at native resolution.
+    pub val: Option<PathBuf>,
+    /// The run folder.
+    pub run_dir: PathBuf,
+    /// Continue the run in `run_dir` from its last checkpoint.
+    pub resume: bool,
+    /// VGG19 weights (safetensors, torchvision keys) for a perceptual term.
+    pub vgg19: Option<PathBuf>,
+    /// Compute device (without autodiff; training enables it).
+    pub device: Device,
+    /// Stop (with a checkpoint) after this many steps in this session.
+    pub max_steps: Option<usize>,
+    /// PSNR reference lines drawn on the validation curve (e.g. baselines).
+    pub val_refs: Vec<f64>,
+    /// Image decoding limits.
+    pub limits: DecodeLimits,
+}
+
+impl TrainOptions {
+    /// Options with defaults for everything but the data, the run folder and the device.
+    #[must_use]
+    pub fn new(data: Vec<PathBuf>, run_dir: PathBuf, device: Device) -> Self {
+        Self {
+            data,
+            val: None,
+            run_dir,
+            resume: false,
+            vgg19: None,
+            device,
+            max_steps: None,
+            val_refs: Vec::new(),
+            limits: DecodeLimits::default(),
+        }
+    }
+
+    /// This session as the loop sees it.
+    #[must_use]
+    pub fn session(&self) -> Session {
+        Session {
+            run_dir: self.run_dir.clone(),
+            resume: self.resume,
+            max_steps: self.max_steps,
+            val_refs: self.val_refs.clone(),
+        }
+    }
 }
 
 /// Where the run lives and what this session does (not part of the run's config).

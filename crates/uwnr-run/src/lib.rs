@@ -28,6 +28,7 @@ pub mod plot;
 
 pub use error::{Result, RunError};
 pub use learner::{
-    Event, Prepared, Schedule, Scores, Session, Summary, Task, ValResult, init_seeded, train,
+    Event, Prepared, Schedule, Scores, Session, Summary, Task, TrainOptions, ValResult,
+    init_seeded, train,
 };
 pub use loader::BatchSource;

@@ -5,13 +5,12 @@
 //! folder's layout is described in [`uwnr_run::folder`].
 
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 
 use burn::optim::{AdamWConfig, GradientsParams, ModuleOptimizer};
 use burn::tensor::{Device, Tensor, TensorData};
-use uwnr_core::io::DecodeLimits;
 use uwnr_core::lightfield;
 use uwnr_model::style::{estimate_water, finish_tensor};
 use uwnr_model::weights::SOURCE_METADATA_KEY;
@@ -19,9 +18,11 @@ use uwnr_model::{
     Backend, Generator, Network, ReferenceStyle, RenderOptions, Variant, WeightsDtype,
     save_generator,
 };
+/// Where and how to train (what is not part of the run's config).
+pub use uwnr_run::TrainOptions;
 use uwnr_run::checkpoint::RunState;
 use uwnr_run::folder::{check_run_folder, check_saved_config};
-use uwnr_run::{Event, Prepared, Schedule, Scores, Session, Task};
+use uwnr_run::{Event, Prepared, Schedule, Scores, Task};
 
 use crate::augment::{TARGET_CHANNELS, WATER_VALUES};
 use crate::config::TrainConfig;
@@ -44,47 +45,6 @@ const LOSS_TERMS: [(&str, &str); 5] = [
 ];
 /// Column headers of a validation contact sheet.
 const SHEET_COLUMNS: [&str; 3] = ["clean", "render", "real underwater"];
-
-/// Where and how to train (what is not part of the run's config).
-#[derive(Clone, Debug)]
-pub struct TrainOptions {
-    /// Training data folders (`underwater/` + `clean/`, optional `depth/`).
-    pub data: Vec<PathBuf>,
-    /// Validation data folder (same layout), scored at native resolution.
-    pub val: Option<PathBuf>,
-    /// The run folder.
-    pub run_dir: PathBuf,
-    /// Continue the run in `run_dir` from its last checkpoint.
-    pub resume: bool,
-    /// VGG19 weights (safetensors, torchvision keys) for the perceptual term.
-    pub vgg19: Option<PathBuf>,
-    /// Compute device (without autodiff; training enables it).
-    pub device: Device,
-    /// Stop (with a checkpoint) after this many steps in this session.
-    pub max_steps: Option<usize>,
-    /// PSNR reference lines drawn on the validation curve (e.g. baselines).
-    pub val_refs: Vec<f64>,
-    /// Image decoding limits.
-    pub limits: DecodeLimits,
-}
-
-impl TrainOptions {
-    /// Options with defaults for everything but the data and the run folder.
-    #[must_use]
-    pub fn new(data: Vec<PathBuf>, run_dir: PathBuf, device: Device) -> Self {
-        Self {
-            data,
-            val: None,
-            run_dir,
-            resume: false,
-            vgg19: None,
-            device,
-            max_steps: None,
-            val_refs: Vec::new(),
-            limits: DecodeLimits::default(),
-        }
-    }
-}
 
 /// How a session ended.
 #[derive(Clone, Debug)]
@@ -190,12 +150,7 @@ pub fn train(
         val_styles,
         steps_per_epoch: source.batches_per_epoch(),
     };
-    let session = Session {
-        run_dir: run.clone(),
-        resume: opts.resume,
-        max_steps: opts.max_steps,
-        val_refs: opts.val_refs.clone(),
-    };
+    let session = opts.session();
     let summary = uwnr_run::train(
         &task,
         source,
