@@ -29,31 +29,25 @@ pub trait TrainerConfig: RunConfig + Default {
     fn common(&mut self) -> Common<'_>;
 }
 
-impl TrainerConfig for TrainConfig {
-    fn common(&mut self) -> Common<'_> {
-        Common {
-            epochs: &mut self.epochs,
-            batch_size: &mut self.batch_size,
-            crop: &mut self.crop,
-            seed: &mut self.seed,
-            lr: &mut self.lr,
-            val_every_epochs: &mut self.val_every_epochs,
+/// Both trainers' configs name the common settings alike.
+macro_rules! trainer_config {
+    ($($t:ty),*) => {$(
+        impl TrainerConfig for $t {
+            fn common(&mut self) -> Common<'_> {
+                Common {
+                    epochs: &mut self.epochs,
+                    batch_size: &mut self.batch_size,
+                    crop: &mut self.crop,
+                    seed: &mut self.seed,
+                    lr: &mut self.lr,
+                    val_every_epochs: &mut self.val_every_epochs,
+                }
+            }
         }
-    }
+    )*};
 }
 
-impl TrainerConfig for EnhanceTrainConfig {
-    fn common(&mut self) -> Common<'_> {
-        Common {
-            epochs: &mut self.epochs,
-            batch_size: &mut self.batch_size,
-            crop: &mut self.crop,
-            seed: &mut self.seed,
-            lr: &mut self.lr,
-            val_every_epochs: &mut self.val_every_epochs,
-        }
-    }
-}
+trainer_config!(TrainConfig, EnhanceTrainConfig);
 
 /// The run's config: the run folder's `config.json` on resume, else `--config` or the
 /// defaults; then the command-line overrides of [`RunArgs`] (the caller applies its own).
