@@ -51,7 +51,7 @@
 //! contrast cue is then constant and the map is the pure ramp.
 
 use uwnr_core::Image;
-use uwnr_core::resize::resize_bilinear;
+use uwnr_core::resize::{fit_within_dims, resize_bilinear};
 
 use crate::error::Result;
 use crate::util::{MIN_RANGE, min_max, normalise_min_max, rgb_planes};
@@ -135,13 +135,7 @@ pub fn builtin_depth(clean: &Image) -> Result<Image> {
 /// Size of the working grid: the image scaled so its long side is [`GRID_LONG_SIDE`], never
 /// enlarged, at least one cell per side.
 fn grid_size(width: usize, height: usize) -> (usize, usize) {
-    let long = width.max(height);
-    if long <= GRID_LONG_SIDE {
-        return (width, height);
-    }
-    let scale = GRID_LONG_SIDE as f64 / long as f64;
-    let cells = |side: usize| ((side as f64 * scale).round() as usize).clamp(1, GRID_LONG_SIDE);
-    (cells(width), cells(height))
+    fit_within_dims((width, height), GRID_LONG_SIDE)
 }
 
 /// Separable Gaussian blur of a `width x height` plane with clamp-to-edge borders.
