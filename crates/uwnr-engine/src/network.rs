@@ -325,14 +325,40 @@ impl Generator {
     /// # Shapes
     /// - `x`: `in_channels x h x w` with `h`, `w` multiples of 16.
     pub fn forward(&self, x: &Planar, means: Means<'_>) -> Result<(Planar, Vec<Vec<f32>>)> {
+        self.forward_probed(x, means, &mut |_| {})
+    }
+
+    /// Wall time of each stage of one forward pass (`Means::Own`), in order, for profiling:
+    /// names like `level0.stem`, `up3.conv`, `out`.
+    pub fn profile(&self, x: &Planar) -> Result<Vec<(String, std::time::Duration)>> {
+        let mut stages = Vec::new();
+        let mut last = std::time::Instant::now();
+        self.forward_probed(x, Means::Own, &mut |name| {
+            let now = std::time::Instant::now();
+            stages.push((name.to_string(), now - last));
+            last = now;
+        })?;
+        Ok(stages)
+    }
+
+    /// [`Self::forward`], calling `probe` with the name of each stage as it ends.
+    fn forward_probed(
+        &self,
+        x: &Planar,
+        means: Means<'_>,
+        probe: &mut dyn FnMut(&str),
+    ) -> Result<(Planar, Vec<Vec<f32>>)> {
         self.check(x, means)?;
         let mut pool = self.take_pool();
         let mut skips: Vec<Feature> = Vec::with_capacity(LEVELS);
         let mut used = Vec::with_capacity(LEVELS);
         let input = Feature::from_planar(x, 1);
+        probe("input");
         for (k, level) in self.levels.iter().enumerate() {
             let h = skips.last().unwrap_or(&input);
-            let (stem, attended) = level.attention_input(h, &mut pool);
+            let (stem, attended) = level.attention_input_probed(h, &mut pool, &mut |s| {
+                probe(&format!("level{k}.{s}"));
+            });
             let mean = match means {
                 Means::Own => pool_means(&attended),
                 Means::Given(m) => m[k].clone(),
@@ -340,11 +366,14 @@ impl Generator {
             skips.push(level.finish(stem, &attended, &mean));
             pool.give(attended);
             used.push(mean);
+            probe(&format!("level{k}.channel_attention"));
         }
         let mut h = skips.pop().unwrap_or(input);
-        for up in &self.ups {
+        for (i, up) in self.ups.iter().enumerate() {
             let skip = skips.pop();
-            let next = upsample(up, &h, skip.as_ref(), &mut pool);
+            let next = upsample(up, &h, skip.as_ref(), &mut pool, &mut |s| {
+                probe(&format!("up{i}.{s}"));
+            });
             pool.give(std::mem::replace(&mut h, next));
             if let Some(s) = skip {
                 pool.give(s);
@@ -352,10 +381,12 @@ impl Generator {
         }
         let mut y = Feature::output_in(&mut pool, h.h, h.w, self.out_channels, 0);
         self.out.run(&h, &mut y, &mut pool);
+        probe("out");
         let out = y.to_planar();
         pool.give(h);
         pool.give(y);
         self.return_pool(pool);
+        probe("output");
         Ok((out, used))
     }
 
@@ -410,12 +441,25 @@ impl Generator {
 impl Level {
     /// The stem (the block's residual) and `SA(LeakyReLU(conk1 + conk3 + id))`.
     fn attention_input(&self, x: &Feature, pool: &mut Pool) -> (Feature, Feature) {
+        self.attention_input_probed(x, pool, &mut |_| {})
+    }
+
+    /// [`Self::attention_input`], calling `probe` as each stage ends.
+    fn attention_input_probed(
+        &self,
+        x: &Feature,
+        pool: &mut Pool,
+        probe: &mut dyn FnMut(&str),
+    ) -> (Feature, Feature) {
         let (ho, wo) = self.stem.out_size(x.h, x.w);
         let mut stem = Feature::output_in(pool, ho, wo, self.c, 1);
         self.stem.run(x, &mut stem, pool);
+        probe("stem");
         let mut o = Feature::output_in(pool, ho, wo, self.c, 0);
         self.body.run(&stem, &mut o, pool);
+        probe("body");
         self.spatial_attention(&mut o, pool);
+        probe("spatial_attention");
         (stem, o)
     }
 
@@ -674,10 +718,17 @@ fn shuffle_order(cout: usize) -> Vec<usize> {
 }
 
 /// `PixelShuffle(ELU(conv(x))) + skip` into a padded map.
-fn upsample(conv: &Conv3, x: &Feature, skip: Option<&Feature>, pool: &mut Pool) -> Feature {
+fn upsample(
+    conv: &Conv3,
+    x: &Feature,
+    skip: Option<&Feature>,
+    pool: &mut Pool,
+    probe: &mut dyn FnMut(&str),
+) -> Feature {
     let cout = 2 * x.c;
     let mut tmp = Feature::output_in(pool, x.h, x.w, cout, 0);
     conv.run(x, &mut tmp, pool);
+    probe("conv");
     let c = cout / (UPSCALE * UPSCALE);
     let mut out = Feature::output_in(pool, x.h * UPSCALE, x.w * UPSCALE, c, 1);
     let stride = out.row_stride();
@@ -705,5 +756,6 @@ fn upsample(conv: &Conv3, x: &Feature, skip: Option<&Feature>, pool: &mut Pool) 
             }
         });
     pool.give(tmp);
+    probe("shuffle_skip");
     out
 }

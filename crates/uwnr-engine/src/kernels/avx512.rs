@@ -1,10 +1,13 @@
 //! The AVX-512F micro-kernel: 12 pixels x 32 channels, 24 zmm accumulators.
 
 use std::arch::x86_64::{
-    __m512, _mm512_fmadd_ps, _mm512_loadu_ps, _mm512_set1_ps, _mm512_setzero_ps, _mm512_storeu_ps,
+    __m512, __mmask16, _mm512_add_ps, _mm512_fmadd_ps, _mm512_loadu_ps, _mm512_mask_storeu_ps,
+    _mm512_maskz_loadu_ps, _mm512_max_ps, _mm512_mul_ps, _mm512_set1_ps, _mm512_setzero_ps,
+    _mm512_storeu_ps,
 };
 
-use super::{Tile, epilogue};
+use super::act::LEAKY_RELU_SLOPE;
+use super::{Act, Tile, epilogue};
 
 const MR: usize = 12;
 const NR: usize = 32;
@@ -52,6 +55,11 @@ unsafe fn tile_m<const M: usize>(t: &Tile<'_>) {
             }
         }
     }
+    if matches!(t.act, Act::Identity | Act::LeakyRelu) {
+        // SAFETY: caller's contract on the output range and the NR biases.
+        unsafe { store_in_registers(t, &acc) };
+        return;
+    }
     let mut buf = [[0.0f32; NR]; M];
     for (vals, accm) in buf.iter_mut().zip(&acc) {
         // SAFETY: each row of buf holds NR = 2 x LANES floats.
@@ -62,4 +70,47 @@ unsafe fn tile_m<const M: usize>(t: &Tile<'_>) {
     }
     // SAFETY: caller's contract on the output range.
     unsafe { epilogue::<NR, _>(t, &mut buf) };
+}
+
+/// The epilogue of [`tile_m`] for the activations that are cheap in registers: bias, the
+/// values `C` holds when accumulating, LeakyReLU, and masked stores of the `n` columns, with
+/// no round trip through memory.
+///
+/// # Safety
+/// As [`super::run_tile`] for `t.c` and `t.bias`; the CPU must have AVX-512F.
+#[target_feature(enable = "avx512f")]
+unsafe fn store_in_registers<const M: usize>(t: &Tile<'_>, acc: &[[__m512; 2]; M]) {
+    let masks: [__mmask16; 2] = [column_mask(t.n), column_mask(t.n.saturating_sub(LANES))];
+    // SAFETY: bias holds NR values.
+    let bias = unsafe { [_mm512_loadu_ps(t.bias), _mm512_loadu_ps(t.bias.add(LANES))] };
+    let slope = _mm512_set1_ps(LEAKY_RELU_SLOPE);
+    let leaky = t.act == Act::LeakyRelu;
+    for (row, accm) in acc.iter().enumerate().take(t.m) {
+        for (half, (&sum, &mask)) in accm.iter().zip(&masks).enumerate() {
+            if mask == 0 {
+                continue;
+            }
+            // SAFETY: row < m and the mask covers columns < n: inside the output range.
+            unsafe {
+                let dst = t.c.add(row * t.ldc + half * LANES);
+                let mut v = _mm512_add_ps(sum, bias[half]);
+                if t.accumulate {
+                    v = _mm512_add_ps(v, _mm512_maskz_loadu_ps(mask, dst));
+                }
+                if leaky {
+                    v = _mm512_max_ps(v, _mm512_mul_ps(v, slope));
+                }
+                _mm512_mask_storeu_ps(dst, mask, v);
+            }
+        }
+    }
+}
+
+/// The lanes of the first `n` (capped at 16) columns.
+fn column_mask(n: usize) -> __mmask16 {
+    if n >= LANES {
+        0xFFFF
+    } else {
+        ((1u32 << n) - 1) as __mmask16
+    }
 }
