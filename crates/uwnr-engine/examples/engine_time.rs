@@ -1,10 +1,13 @@
 //! Times one forward pass of the full-width generator (random weights) on the engine:
-//! `cargo run --release -p uwnr-engine --example engine_time -- [sizes...] [--direct | --f2] [--isa NAME] [--precision f32|bf16] [--runs N]`.
+//! `cargo run --release -p uwnr-engine --example engine_time -- [sizes...] [--direct | --f2] [--isa NAME] [--precision f32|bf16] [--runs N] [--layers] [--stages]`.
 //! Prints milliseconds per image (best and median of the runs) and GFLOP/s against the kernel
 //! MAC count. With `--precision bf16` it also prints the largest and mean absolute difference
 //! of the output from the f32 engine's on the same input.
 //! With `--layers`, also the best time of every layer of the network at each size (the
-//! [`LayerBench`] shapes), to see where a forward pass spends its time.
+//! [`LayerBench`] shapes), to see where a forward pass spends its time. With `--stages`, the
+//! best time of every stage of the whole forward pass ([`Generator::profile`]: each level's
+//! stem, block, spatial and channel attention, each decoder conv and its shuffle, the output
+//! layer), which also counts what the layer benches leave out (shuffles, skips, conversions).
 
 use std::time::Instant;
 
@@ -36,12 +39,14 @@ fn main() {
     let mut opts = EngineOptions::default();
     let mut runs = 5;
     let mut layers = false;
+    let mut stages = false;
     let mut it = args.iter();
     while let Some(a) = it.next() {
         match a.as_str() {
             "--direct" => opts.algo = ConvAlgo::Direct,
             "--f2" => opts.algo = ConvAlgo::WinogradF2,
             "--layers" => layers = true,
+            "--stages" => stages = true,
             "--isa" => {
                 let name = it.next().map(String::as_str).unwrap_or("");
                 opts.isa = Isa::ALL
@@ -139,6 +144,9 @@ fn main() {
         if layers {
             layer_times(opts, size, runs);
         }
+        if stages {
+            stage_times(&g, &x, runs);
+        }
     }
 }
 
@@ -173,4 +181,26 @@ fn layer_times(opts: EngineOptions, size: usize, runs: usize) {
         }
     }
     println!("  sum of layers: {:.1} ms", total * 1e3);
+}
+
+/// Best time of each stage of the forward pass of `g` on `x`.
+fn stage_times(g: &Generator, x: &Planar, runs: usize) {
+    let mut best: Vec<(String, f64)> = Vec::new();
+    for _ in 0..runs.max(1) {
+        let stages = g.profile(x).expect("a valid input");
+        if best.is_empty() {
+            best = stages
+                .iter()
+                .map(|(n, _)| (n.clone(), f64::INFINITY))
+                .collect();
+        }
+        for ((_, b), (_, d)) in best.iter_mut().zip(&stages) {
+            *b = b.min(d.as_secs_f64());
+        }
+    }
+    for (name, secs) in &best {
+        println!("  {name:<28} {:7.2} ms", secs * 1e3);
+    }
+    let total: f64 = best.iter().map(|(_, s)| s).sum();
+    println!("  sum of stages: {:.1} ms", total * 1e3);
 }
