@@ -18,7 +18,7 @@ use crate::error::{EngineError, Result};
 use crate::kernels::act::{LEAKY_RELU_SLOPE, sigmoid};
 use crate::kernels::{Act, Dot, Isa, Precision};
 use crate::narrow::Narrow;
-use crate::tensor::{Feature, Planar, Pool};
+use crate::tensor::{Feature, PassKind, Planar, Pool};
 use crate::weights::{ATTENTION_REDUCTION, ConvWeights, GeneratorWeights, LEVELS};
 use crate::winograd::{WinoTile, Winograd};
 
@@ -349,7 +349,7 @@ impl Generator {
         probe: &mut dyn FnMut(&str),
     ) -> Result<(Planar, Vec<Vec<f32>>)> {
         self.check(x, means)?;
-        let mut pool = self.take_pool();
+        let mut pool = self.take_pool((x.channels, x.height, x.width, LEVELS));
         let mut skips: Vec<Feature> = Vec::with_capacity(LEVELS);
         let mut used = Vec::with_capacity(LEVELS);
         let input = Feature::from_planar(x, 1);
@@ -390,11 +390,15 @@ impl Generator {
         Ok((out, used))
     }
 
-    fn take_pool(&self) -> Pool {
-        self.pool
+    /// The buffers of earlier passes, for a pass of `kind` (see [`Pool::begin`]).
+    fn take_pool(&self, kind: PassKind) -> Pool {
+        let mut pool = self
+            .pool
             .lock()
             .map(|mut p| std::mem::take(&mut *p))
-            .unwrap_or_default()
+            .unwrap_or_default();
+        pool.begin(kind);
+        pool
     }
 
     fn return_pool(&self, pool: Pool) {
@@ -418,7 +422,7 @@ impl Generator {
         let mut padded = known.to_vec();
         padded.extend(self.levels[k..].iter().map(|l| vec![0.0; l.c]));
         self.check(x, Means::Given(&padded))?;
-        let mut pool = self.take_pool();
+        let mut pool = self.take_pool((x.channels, x.height, x.width, k));
         let mut h = Feature::from_planar(x, 1);
         for (level, l) in self.levels.iter().enumerate() {
             let (stem, attended) = l.attention_input(&h, &mut pool);

@@ -131,22 +131,42 @@ impl Feature {
 
 /// Buffers a [`Pool`] keeps at most.
 const MAX_POOLED: usize = 32;
-/// Bytes a [`Pool`] keeps at most: every buffer of a forward pass at the renderer's largest
-/// tile (1024x1024, the full-width network), so that a render of several tiles or images
-/// reuses memory it has already touched instead of faulting in fresh pages for every map.
+/// Bytes a [`Pool`] keeps at most between passes of one kind: more than every buffer of a
+/// forward pass at the renderer's largest tile (1024x1024, the full-width network), so that
+/// repeated passes (images of one size, a photo's equal tiles) reuse memory they have already
+/// touched instead of faulting in fresh pages for every map.
 const MAX_POOLED_BYTES: usize = 1 << 30;
+/// Bytes kept when the kind of pass changes (another input size or encoder depth): the
+/// buffers of the old kind fit the new one badly, and keeping them all would add one kind's
+/// memory to the next's.
+const KEPT_ACROSS_KINDS: usize = 64 << 20;
 /// Fresh buffers at least this large are advised into transparent huge pages where the
 /// system offers them on request (Linux `madvise`).
 const HUGE_PAGE_MIN_BYTES: usize = 8 << 20;
+
+/// What a pass is, for [`Pool::begin`]: its input's channels, height and width and how deep
+/// it runs.
+pub(crate) type PassKind = (usize, usize, usize, usize);
 
 /// Buffers kept between forward passes, so that a render reuses memory it has already
 /// touched instead of faulting in fresh pages for every feature map.
 #[derive(Debug, Default)]
 pub(crate) struct Pool {
     free: Vec<Vec<f32>>,
+    /// The kind of the last pass.
+    kind: Option<PassKind>,
 }
 
 impl Pool {
+    /// Starts a pass of `kind`: where the last pass was of another kind, only
+    /// [`KEPT_ACROSS_KINDS`] bytes of buffers are kept.
+    pub fn begin(&mut self, kind: PassKind) {
+        if self.kind != Some(kind) {
+            self.trim(KEPT_ACROSS_KINDS);
+            self.kind = Some(kind);
+        }
+    }
+
     /// A buffer of `n` floats, from the smallest free buffer that holds it, with whatever
     /// values it last held (zeros where it is new).
     pub fn take_stale(&mut self, n: usize) -> Vec<f32> {
@@ -181,18 +201,23 @@ impl Pool {
         self.free.push(v);
     }
 
-    /// Moves the buffers of `other` into this pool, keeping at most [`MAX_POOLED`] buffers
-    /// and [`MAX_POOLED_BYTES`], largest first: a 256x256 pass keeps all of its buffers, a
-    /// 1024x1024 tile keeps part of them, so memory stays bounded by the tile size.
+    /// Moves the buffers of `other` (a pass's pool) into this pool, which takes its kind,
+    /// keeping at most [`MAX_POOLED`] buffers and [`MAX_POOLED_BYTES`], largest first.
     pub fn absorb(&mut self, other: Pool) {
         self.free.extend(other.free);
+        self.kind = other.kind.or(self.kind);
+        self.trim(MAX_POOLED_BYTES);
+    }
+
+    /// Keeps at most [`MAX_POOLED`] buffers and `bytes`, largest first.
+    fn trim(&mut self, bytes: usize) {
         self.free.sort_by_key(|v| std::cmp::Reverse(v.capacity()));
-        let mut bytes = 0;
+        let mut kept = 0;
         self.free.retain(|v| {
             let b = v.capacity() * std::mem::size_of::<f32>();
-            let keep = bytes + b <= MAX_POOLED_BYTES;
+            let keep = kept + b <= bytes;
             if keep {
-                bytes += b;
+                kept += b;
             }
             keep
         });
@@ -271,6 +296,35 @@ mod tests {
         assert_eq!(f.data[f.at(1, 2) + 1], 12.0);
         assert_eq!(f.data.iter().filter(|&&v| v == 0.0).count(), 40 - 12);
         assert_eq!(f.to_planar(), p);
+    }
+
+    #[test]
+    fn the_pool_keeps_buffers_for_passes_of_one_kind_only() {
+        const MB: usize = (1 << 20) / 4;
+        let held = |p: &Pool| p.free.iter().map(Vec::capacity).sum::<usize>() / MB;
+        let mut shared = Pool::default();
+        let pass = |shared: &mut Pool, kind: PassKind, sizes: &[usize]| {
+            let mut pool = std::mem::take(shared);
+            pool.begin(kind);
+            let bufs: Vec<Vec<f32>> = sizes.iter().map(|&n| pool.take_stale(n * MB)).collect();
+            let caps: Vec<usize> = bufs.iter().map(|b| b.capacity() / MB).collect();
+            for b in bufs {
+                pool.give_vec(b);
+            }
+            shared.absorb(pool);
+            caps
+        };
+        let big = (1, 1024, 1024, 4);
+        assert_eq!(pass(&mut shared, big, &[96, 32, 48]), [96, 32, 48]);
+        assert_eq!(held(&shared), 176, "a large pass's buffers are kept");
+        // The same kind again takes the same buffers (the smallest that fits each request).
+        assert_eq!(pass(&mut shared, big, &[32, 48, 96]), [32, 48, 96]);
+        assert_eq!(held(&shared), 176);
+        // Another kind keeps only 64 MB of them (the 48 MB buffer: the largest that fits),
+        // lends it for the first request and allocates the second.
+        let small = (1, 512, 512, 4);
+        assert_eq!(pass(&mut shared, small, &[8, 40]), [48, 40]);
+        assert_eq!(held(&shared), 88);
     }
 
     #[test]
