@@ -37,7 +37,8 @@ pub struct Settings {
     pub format: String,
     /// `uwnr`, `jerlov`, `uisa`, `seathru` or `reinhard`.
     pub method: String,
-    /// The method's configuration (for `uwnr`: the weights and their fingerprint).
+    /// The method's configuration (for `uwnr`: the weights, their fingerprint and config, and
+    /// `precision: "bf16"` when the products run in bf16).
     pub method_params: serde_json::Value,
     /// The depth source, as `uwnr_depth::DepthSource` serialises it.
     pub depth_source: serde_json::Value,

@@ -20,6 +20,8 @@ pub struct Network {
     weights: String,
     /// A fingerprint of the weight bytes, so a resumed run cannot switch models silently.
     fingerprint: String,
+    /// Whether the network runs with bf16 products (recorded, so a resume cannot mix them).
+    bf16: bool,
 }
 
 /// The rendering method of a dataset.
@@ -42,6 +44,7 @@ impl Renderer {
     ) -> Self {
         Self::Network(Box::new(Network {
             config: *generator.config(),
+            bf16: generator.is_bf16(),
             generator: Mutex::new(generator),
             options,
             weights,
@@ -66,6 +69,7 @@ impl Renderer {
                 weights: &n.weights,
                 fingerprint: &n.fingerprint,
                 config: &n.config,
+                precision: n.bf16.then_some("bf16"),
             }),
             Self::Baseline(m) => serde_json::to_value(m),
         };
@@ -133,6 +137,10 @@ struct NetworkParams<'a> {
     weights: &'a str,
     fingerprint: &'a str,
     config: &'a GeneratorConfig,
+    /// `bf16` for bf16 products, whose renders differ from f32's by up to one level; absent
+    /// for f32 (so datasets made before this field resume unchanged).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    precision: Option<&'static str>,
 }
 
 /// A renderer as one worker thread holds it.
@@ -218,6 +226,27 @@ mod tests {
         assert_eq!(fnv1a64(b""), 0xcbf2_9ce4_8422_2325);
         assert_eq!(fnv1a64(b"a"), 0xaf63_dc4c_8601_ec8c);
         assert_eq!(fnv1a64(b"foobar"), 0x8594_4171_f739_67e8);
+    }
+
+    #[test]
+    fn bf16_products_are_recorded_and_f32_settings_keep_their_old_form() {
+        let config = GeneratorConfig::with_base_width(8);
+        let generator = config.init(&uwnr_model::Device::flex()).unwrap();
+        let params = |backend: &uwnr_model::Backend| {
+            let network =
+                uwnr_model::Network::from_generator(&generator, &config, backend).unwrap();
+            Renderer::network(network, RenderOptions::default(), "w".into(), b"x")
+                .settings_params()
+                .unwrap()
+        };
+        let f32 = params(&uwnr_model::Backend::Engine);
+        let bf16 = params(&uwnr_model::Backend::EngineBf16);
+        assert!(f32.get("precision").is_none(), "{f32}");
+        assert_eq!(bf16["precision"], "bf16");
+        assert_ne!(f32, bf16, "a resume with the other precision is refused");
+        let mut without = bf16.clone();
+        without.as_object_mut().unwrap().remove("precision");
+        assert_eq!(without, f32, "nothing else differs");
     }
 
     #[test]

@@ -166,6 +166,13 @@ impl Network {
         &self.config
     }
 
+    /// Whether the network runs the engine with bf16 products (outputs a little off the f32
+    /// paths', see [`Backend::EngineBf16`]).
+    #[must_use]
+    pub fn is_bf16(&self) -> bool {
+        matches!(&self.imp, Imp::Engine(e) if e.options().precision == Precision::Bf16)
+    }
+
     /// The backend's name (`engine`, `engine (bf16)`, `flex`, `tch`).
     #[must_use]
     pub fn backend_name(&self) -> String {
