@@ -1,9 +1,10 @@
 //! Unpaired GAN data: clean in-air images with their depth, and real underwater references.
 //!
 //! Clean folders (the run's `data`) are read in one of three layouts:
-//! - `rgb/` + `depth/` (the RGB-D sets in `data/rgbd/*`): depth maps matched by file stem and
+//! - `rgb/` + `depth/` (the RGB-D sets in `data/rgbd/*`): depth maps matched by file stem, or
+//!   else by the number that ends the stem (NYU's `rgb_00000.jpg` and `sync_depth_00000.png`),
 //!   min-max normalised per map (`uwnr-depth`'s `Maps { normalize: true }`: NYU stores 16-bit
-//!   millimetres, KITTI metres x 256);
+//!   millimetres, KITTI metres x 256); an image without a map is skipped and reported;
 //! - `clean/` (a paired folder used for its clean side only): depth from `uwnr-depth`'s built-in
 //!   prior;
 //! - images directly in the folder: the built-in prior (or a `depth/` subfolder when there is one).
@@ -133,20 +134,20 @@ pub(crate) fn load(
     let mut clean = Vec::new();
     for dir in clean_dirs {
         let (images, depth_dir) = clean_layout(dir);
-        let source = match &depth_dir {
-            Some(p) => DepthSource::Maps {
-                path: p.clone(),
-                invert: false,
-                normalize: true,
-            },
-            None => DepthSource::Builtin,
+        let prior = DepthSource::Builtin.prepare_with_limits(*limits)?;
+        let maps = match &depth_dir {
+            Some(d) => Some(list_images(d, None)?),
+            None => None,
         };
-        let depth = source.prepare_with_limits(*limits)?;
+        let plan = match &maps {
+            Some(m) => DepthPlan::Maps(m),
+            None => DepthPlan::Prior(&prior),
+        };
         let files = list_images(&images, max_per_dir)?;
         let loaded: Vec<std::result::Result<CleanSample, String>> = files
             .par_iter()
             .map(|p| {
-                load_clean(p, &depth, crop, limits).map_err(|e| format!("{}: {e}", p.display()))
+                load_clean(p, &plan, crop, limits).map_err(|e| format!("{}: {e}", p.display()))
             })
             .collect();
         let before = clean.len();
@@ -208,15 +209,63 @@ pub(crate) fn load(
     })
 }
 
+/// Where a clean folder's depth comes from.
+enum DepthPlan<'a> {
+    /// The built-in prior.
+    Prior(&'a PreparedDepth),
+    /// The map files of its `depth/` folder.
+    Maps(&'a [PathBuf]),
+}
+
+/// The number that ends a file stem (`"sync_depth_00050"` -> `"00050"`), if any.
+fn trailing_number(path: &Path) -> Option<&str> {
+    let stem = path.file_stem()?.to_str()?;
+    let digits = stem.len() - stem.trim_end_matches(|c: char| c.is_ascii_digit()).len();
+    (digits > 0).then(|| &stem[stem.len() - digits..])
+}
+
+/// The depth map of `image` among `maps`: the one with the same file stem, or else the only one
+/// whose stem ends in the same number.
+fn find_depth_map<'a>(image: &Path, maps: &'a [PathBuf]) -> Option<&'a PathBuf> {
+    let stem = image.file_stem();
+    if let Some(m) = maps.iter().find(|m| m.file_stem() == stem) {
+        return Some(m);
+    }
+    let number = trailing_number(image)?;
+    let mut same = maps.iter().filter(|m| trailing_number(m) == Some(number));
+    match (same.next(), same.next()) {
+        (Some(m), None) => Some(m),
+        _ => None,
+    }
+}
+
 /// Decodes a clean image, computes its depth, and pads both up to `crop`.
 fn load_clean(
     path: &Path,
-    depth: &PreparedDepth,
+    plan: &DepthPlan<'_>,
     crop: usize,
     limits: &DecodeLimits,
 ) -> Result<CleanSample> {
     let image = load_rgb(path, limits)?;
-    let map = depth.depth_for(&image, Some(path))?.map;
+    let map = match plan {
+        DepthPlan::Prior(prior) => prior.depth_for(&image, Some(path))?.map,
+        DepthPlan::Maps(maps) => {
+            let file = find_depth_map(path, maps).ok_or_else(|| {
+                GanError::Run(uwnr_run::RunError::BadImage {
+                    path: path.to_path_buf(),
+                    reason: "no depth map with the same stem or number".into(),
+                })
+            })?;
+            DepthSource::Maps {
+                path: file.clone(),
+                invert: false,
+                normalize: true,
+            }
+            .prepare_with_limits(*limits)?
+            .depth_for(&image, None)?
+            .map
+        }
+    };
     let (w, h) = image.size();
     let (nw, nh) = (w.max(crop), h.max(crop));
     let (image, map) = if (nw, nh) == (w, h) {
@@ -461,6 +510,30 @@ mod tests {
                 assert!((d * 255.0 - 8.0 * (red - k)).abs() < 1e-3, "pixel {i}");
             }
         }
+    }
+
+    #[test]
+    fn depth_maps_are_found_by_stem_or_trailing_number() {
+        let maps: Vec<PathBuf> = [
+            "d/sync_depth_00000.png",
+            "d/sync_depth_00050.png",
+            "d/a.png",
+            "d/x1.png",
+            "d/y1.png",
+        ]
+        .iter()
+        .map(PathBuf::from)
+        .collect();
+        let find =
+            |p: &str| find_depth_map(Path::new(p), &maps).map(|m| m.to_string_lossy().into_owned());
+        assert_eq!(
+            find("r/rgb_00050.jpg").as_deref(),
+            Some("d/sync_depth_00050.png")
+        );
+        assert_eq!(find("r/a.jpg").as_deref(), Some("d/a.png"));
+        // Two maps end in 1: ambiguous, so none.
+        assert_eq!(find("r/z1.jpg"), None);
+        assert_eq!(find("r/b.jpg"), None);
     }
 
     #[test]

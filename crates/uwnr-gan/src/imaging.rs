@@ -24,8 +24,11 @@
 //!   on an in-air image, its depth and a noise code `z`;
 //! - per-channel exponential attenuation with depth, `exp(−η_c d)`, and the depth-dependent
 //!   veiling term `(1 − exp(−η d))` of UWGAN's "improved" model;
-//! - WaterGAN's vignetting polynomial in `r²`, `r⁴`, `r⁶` and the global gain (UWGAN's
-//!   `g_tol`, initialised to 0.9: [`GAIN_INIT`]);
+//! - the camera stage of the WaterGAN paper: a radial vignetting polynomial in `r²`, `r⁴`, `r⁶`
+//!   (coefficients a, b, c) and a scale `k`, as summaries of the paper describe it (the paper's
+//!   own equation could not be checked from here; the form is the standard even polynomial of
+//!   the vignetting literature); the scale is also UWGAN's `g_tol`, initialised to 0.9
+//!   ([`GAIN_INIT`]);
 //! - UWGAN's initial attenuation coefficients ([`UWGAN_BETA_INIT`]).
 //!
 //! Simplified or changed (the baseline is "in the manner of", not a reproduction):
@@ -36,7 +39,8 @@
 //!   UWGAN instead project `z` with a dense layer to a full-resolution map, multiply it by
 //!   depth and convolve it (5x5) per channel; that dense layer has `|z| · H · W` weights, which
 //!   ties the network to one image size (48x64 in WaterGAN, 256x256 in UWGAN). UWGAN's extra
-//!   haze term with its fixed coefficient 0.75 is folded into the same `B (1 − t)`.
+//!   haze term, `255 A (1 − e^(−0.75 d)) e^(−η d)` with a fixed 0.75, is not reproduced:
+//!   `B (1 − t)` is the only veiling term.
 //! - **Constraints are built into the parameterisation** (bounded sigmoids, [`WaterParams::from_raw`])
 //!   instead of WaterGAN/UWGAN's penalty terms (`−min(η, 0) · 10⁴` added to the generator
 //!   loss). The vignetting coefficients are kept in `[−VIGNETTE_MAX, 0]`, so `V` falls off

@@ -357,10 +357,8 @@ impl Discriminator {
             if i == last {
                 break;
             }
-            if i > 0 {
-                if let Some(norm) = self.norms.get(i - 1) {
-                    x = norm.forward(x);
-                }
+            if let Some(norm) = i.checked_sub(1).and_then(|n| self.norms.get(n)) {
+                x = norm.forward(x);
             }
             x = leaky_relu(x, LEAKY_SLOPE);
         }

@@ -724,7 +724,7 @@ mod tests {
             train(
                 &cfg,
                 &opts,
-                &[refs.clone()],
+                std::slice::from_ref(&refs),
                 &AtomicBool::new(false),
                 &mut |_| {},
             )
