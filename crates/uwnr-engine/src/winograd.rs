@@ -260,14 +260,7 @@ impl Winograd {
         let mut start = 0;
         while start < tiles {
             let n = chunk.min(tiles - start);
-            let out = if bf {
-                VOut::Bf16 {
-                    v: SharedMut(v.as_mut_ptr().cast::<u16>()),
-                    native: self.dot == Dot::Bf16Native,
-                }
-            } else {
-                VOut::F32(SharedMut(v.as_mut_ptr()))
-            };
+            let out = self.v_out(&mut v);
             self.input_transform::<M, T>(src, tx, start, n, chunk, out);
             self.products(e_n, &v, &mut m, n, chunk);
             self.output_transform::<M, T>(&m, dst, tx, start, n, chunk);
@@ -275,6 +268,19 @@ impl Winograd {
         }
         pool.give_vec(v);
         pool.give_vec(m);
+    }
+
+    /// Where the input transform writes `V` in the buffer `v`: f32 runs, or bf16 runs (in the
+    /// rounding this CPU has) in an f32 buffer of half the length.
+    fn v_out(&self, v: &mut [f32]) -> VOut {
+        if self.dot.is_bf16() {
+            VOut::Bf16 {
+                v: SharedMut(v.as_mut_ptr().cast::<u16>()),
+                native: self.dot == Dot::Bf16Native,
+            }
+        } else {
+            VOut::F32(SharedMut(v.as_mut_ptr()))
+        }
     }
 
     /// `V[e][t][ci]` for tiles `start .. start + n`, into `out` (a buffer of
@@ -522,14 +528,7 @@ impl Winograd {
                 |(v, m, sc), c| {
                     let start = c * chunk;
                     let n = chunk.min(tiles - start);
-                    let out = if bf {
-                        VOut::Bf16 {
-                            v: SharedMut(v.as_mut_ptr().cast::<u16>()),
-                            native: self.dot == Dot::Bf16Native,
-                        }
-                    } else {
-                        VOut::F32(SharedMut(v.as_mut_ptr()))
-                    };
+                    let out = self.v_out(v);
                     // SAFETY: V and M are this thread's own buffers of E * chunk runs; the
                     // chunk's tiles write only their own pixels of dst.
                     unsafe {
