@@ -402,38 +402,29 @@ impl Winograd {
                 // kc) and that block of panel p of U_e; writes those rows of M_e in panel p's
                 // columns, the caller's; the kernel is one this CPU runs.
                 unsafe {
-                    let c = m.add((e * chunk + t) * cout + p * nr);
+                    // The f32 operands' pointers are only formed (wrapping) for a bf16
+                    // product, whose own operands replace them.
+                    let tile = Tile {
+                        a: v.wrapping_add(a_at),
+                        lda: kv,
+                        taps: &taps,
+                        k: kc,
+                        b: self.u.as_ptr().wrapping_add(b_at),
+                        bias: zero_bias.as_ptr(),
+                        c: m.add((e * chunk + t) * cout + p * nr),
+                        ldc: cout,
+                        m: rows,
+                        n: cols,
+                        act: Act::Identity,
+                        accumulate: kb > 0,
+                    };
                     if bf {
-                        let tile = Tile {
-                            a: v.cast::<u16>().add(a_at),
-                            lda: kv,
-                            taps: &taps,
-                            k: kc,
-                            b: self.u_bf16.as_ptr().add(b_at),
-                            bias: zero_bias.as_ptr(),
-                            c,
-                            ldc: cout,
-                            m: rows,
-                            n: cols,
-                            act: Act::Identity,
-                            accumulate: kb > 0,
-                        };
-                        run_tile_bf16(isa, self.dot, &tile);
+                        let bf_tile = tile.with_operands(
+                            v.cast::<u16>().add(a_at),
+                            self.u_bf16.as_ptr().add(b_at),
+                        );
+                        run_tile_bf16(isa, self.dot, &bf_tile);
                     } else {
-                        let tile = Tile {
-                            a: v.add(a_at),
-                            lda: kv,
-                            taps: &taps,
-                            k: kc,
-                            b: self.u.as_ptr().add(b_at),
-                            bias: zero_bias.as_ptr(),
-                            c,
-                            ldc: cout,
-                            m: rows,
-                            n: cols,
-                            act: Act::Identity,
-                            accumulate: kb > 0,
-                        };
                         run_tile(isa, &tile);
                     }
                 }

@@ -207,6 +207,27 @@ pub(crate) struct Tile<'a, E = f32> {
     pub accumulate: bool,
 }
 
+impl<'a, E> Tile<'a, E> {
+    /// The same tile on operands `a` and `b` of another element type (f32 and bf16 products
+    /// share everything else).
+    pub fn with_operands<F>(&self, a: *const F, b: *const F) -> Tile<'a, F> {
+        Tile {
+            a,
+            lda: self.lda,
+            taps: self.taps,
+            k: self.k,
+            b,
+            bias: self.bias,
+            c: self.c,
+            ldc: self.ldc,
+            m: self.m,
+            n: self.n,
+            act: self.act,
+            accumulate: self.accumulate,
+        }
+    }
+}
+
 /// Runs one tile on `isa`.
 ///
 /// # Safety
