@@ -45,7 +45,7 @@ const RGB: usize = 3;
 /// Bytes of one f32 sample.
 const F32_BYTES: usize = 4;
 /// The methods `Renderer` knows, in the order the docs list them.
-const METHODS: [&str; 5] = ["uwnr", "jerlov", "uisa", "seathru", "reinhard"];
+const METHODS: [&str; 6] = ["uwnr", "uwgan", "jerlov", "uisa", "seathru", "reinhard"];
 
 /// A failure inside a computation, sorted by the Python exception it becomes.
 enum Failure {
@@ -313,6 +313,9 @@ enum Kind {
         renderer: DatasetRenderer,
         config: GeneratorConfig,
     },
+    /// The UWGAN-style GAN baseline (it reads no reference; the water code comes from the
+    /// item's seed).
+    Gan { renderer: DatasetRenderer },
     /// A baseline; `without_reference` is the variant used when a call gives no reference
     /// (Sea-thru with no coefficients chosen: fitted from the reference when there is one,
     /// sampled on the Jerlov manifold otherwise, as `uwnr render` does).
@@ -350,6 +353,7 @@ impl NativeRenderer {
     fn method_name(&self) -> &'static str {
         match &self.kind {
             Kind::Network { .. } => "uwnr",
+            Kind::Gan { .. } => "uwgan",
             Kind::Baseline { method, .. } => method.name(),
         }
     }
@@ -387,6 +391,13 @@ impl NativeRenderer {
                 let worker = renderer.worker().map_err(model)?;
                 let (out, _params) = worker
                     .render(&clean, &depth, job.depth.is_none(), Some(input), job.seed)
+                    .map_err(Failure::Model)?;
+                Ok(out)
+            }
+            Kind::Gan { renderer } => {
+                let worker = renderer.worker().map_err(model)?;
+                let (out, _params) = worker
+                    .render(&clean, &depth, job.depth.is_none(), None, job.seed)
                     .map_err(Failure::Model)?;
                 Ok(out)
             }
@@ -487,6 +498,21 @@ fn network(
     Ok((renderer, config, source))
 }
 
+/// Loads the GAN baseline's generator from `weights`, or the bundled one.
+fn gan(weights: Option<PathBuf>, device: &str) -> Result<(DatasetRenderer, String), Failure> {
+    // The generator runs on burn: the engine's name means burn's CPU backend here.
+    let name = if device == uwnr_model::ENGINE_NAME {
+        "flex"
+    } else {
+        device
+    };
+    let device = uwnr_model::device_from_name(name).map_err(value)?;
+    let (generator, bytes, source) =
+        uwnr_gan::generator_or_bundled(weights.as_deref(), &device).map_err(model)?;
+    let renderer = DatasetRenderer::gan(generator, device, source.clone(), &bytes);
+    Ok((renderer, source))
+}
+
 #[pymethods]
 impl NativeRenderer {
     #[new]
@@ -543,9 +569,32 @@ impl NativeRenderer {
                 source,
             });
         }
+        if method == "uwgan" {
+            if let Value::Object(m) = &options
+                && let Some(key) = m.keys().next()
+            {
+                return Err(PyValueError::new_err(format!(
+                    "option {key:?} does not apply to method uwgan (it takes weights and device)"
+                )));
+            }
+            if let Some(path) = &weights
+                && !path.exists()
+            {
+                return Err(PyFileNotFoundError::new_err(format!(
+                    "weights file {} does not exist",
+                    path.display()
+                )));
+            }
+            let (renderer, source) = compute(py, || gan(weights, device))?;
+            return Ok(Self {
+                kind: Kind::Gan { renderer },
+                seed,
+                source,
+            });
+        }
         if weights.is_some() {
             return Err(PyValueError::new_err(format!(
-                "weights apply only to method uwnr, not {method}"
+                "weights apply only to methods uwnr and uwgan, not {method}"
             )));
         }
         let (method, without_reference) = baseline(method, &options)?;
@@ -583,7 +632,7 @@ impl NativeRenderer {
     fn light_field_map(&self) -> Option<&'static str> {
         match &self.kind {
             Kind::Network { config, .. } => Some(config.light_field.name()),
-            Kind::Baseline { .. } => None,
+            Kind::Gan { .. } | Kind::Baseline { .. } => None,
         }
     }
 
@@ -710,6 +759,7 @@ fn _uwnr(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(load_rgb, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add("BUNDLED_MODEL", uwnr_model::bundled_weights().is_some())?;
+    m.add("BUNDLED_GAN", uwnr_gan::bundled_gan_weights().is_some())?;
     m.add("DEVICES", uwnr_model::backend_names())?;
     Ok(())
 }

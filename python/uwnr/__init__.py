@@ -40,7 +40,7 @@ from ._uwnr import Error
 __version__: str = _uwnr.__version__
 
 #: The methods a :class:`Renderer` can use.
-METHODS = ("uwnr", "jerlov", "uisa", "seathru", "reinhard")
+METHODS = ("uwnr", "uwgan", "jerlov", "uisa", "seathru", "reinhard")
 #: The light field normalisations: the paper's min-max map, or the fixed-range map.
 LIGHT_FIELD_MAPS = ("paper", "absolute")
 #: What can run the network in this build, the default first: "engine" (uwnr's own CPU
@@ -48,6 +48,8 @@ LIGHT_FIELD_MAPS = ("paper", "absolute")
 DEVICES = tuple(_uwnr.DEVICES)
 #: Whether this build carries the bundled model (``Renderer()`` with no weights).
 HAS_BUNDLED_MODEL: bool = bool(_uwnr.BUNDLED_MODEL)
+#: Whether this build carries the bundled UWGAN generator (``Renderer(method="uwgan")``).
+HAS_BUNDLED_GAN: bool = bool(_uwnr.BUNDLED_GAN)
 
 # Tiling defaults, as on the command line: images above one megapixel render in overlapping
 # 1024-pixel tiles whose blend keeps the output equal to a whole-image render.
@@ -130,11 +132,13 @@ class Renderer:
     """Renders clean images as underwater images.
 
     :param weights: UWNR weights (safetensors with the authors' key names, or the authors'
-        PyTorch checkpoint); ``None`` for the bundled model. Only for ``method="uwnr"``.
-    :param method: ``"uwnr"`` (the network) or a baseline: ``"jerlov"``, ``"uisa"``,
-        ``"seathru"``, ``"reinhard"``.
-    :param seed: the run seed; a render's random parameters (baselines) come from it and the
-        item's index, as in ``uwnr render``.
+        PyTorch checkpoint), or for ``method="uwgan"`` a GAN generator (``generator.safetensors``
+        of a ``uwnr gan train`` run); ``None`` for the bundled model. Only for those two methods.
+    :param method: ``"uwnr"`` (the network), ``"uwgan"`` (the UWGAN-style GAN baseline, which
+        reads no reference) or a baseline: ``"jerlov"``, ``"uisa"``, ``"seathru"``,
+        ``"reinhard"``.
+    :param seed: the run seed; a render's random parameters (baselines, and the GAN's water code)
+        come from it and the item's index, as in ``uwnr render``.
     :param device: what runs the network: ``"engine"`` (default, uwnr's CPU inference engine, the
         command line's default too), ``"flex"`` (burn), ``"tch"`` in builds with libtorch.
     :param max_whole_pixels, tile, overlap: tiling of large images, as on the command line.
@@ -327,6 +331,7 @@ __all__ = [
     "DEVICES",
     "Error",
     "HAS_BUNDLED_MODEL",
+    "HAS_BUNDLED_GAN",
     "LIGHT_FIELD_MAPS",
     "METHODS",
     "Reference",

@@ -8,6 +8,7 @@ Pixels = Tuple[bytes, int, int, int, str]
 
 __version__: str
 BUNDLED_MODEL: bool
+BUNDLED_GAN: bool
 DEVICES: List[str]
 
 class Error(Exception):

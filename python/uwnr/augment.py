@@ -173,7 +173,7 @@ class UnderwaterAugment:
         renderer = self._renderers.get(method)
         if renderer is None:
             renderer = self._renderers[method] = self._make_renderer(method)
-        reference = self._reference(ref_index) if method != "jerlov" else None
+        reference = self._reference(ref_index) if method not in ("jerlov", "uwgan") else None
         return renderer.render(x, reference, depth, seed=render_seed)
 
     def __getstate__(self) -> Dict[str, Any]:

@@ -38,6 +38,9 @@ pub enum Command {
     /// The Shallow-UWnet enhancer of the downstream experiment: `enhance train` on paired
     /// folders, `enhance apply` to images, `enhance eval` on a paired test folder.
     Enhance(EnhanceArgs),
+    /// The UWGAN-style GAN baseline: `gan train` learns image-formation parameters from unpaired
+    /// clean images (with depth) and real underwater images; `render --method uwgan` uses it.
+    Gan(GanArgs),
 }
 
 /// How clean images are paired with references when there are several.
@@ -97,7 +100,8 @@ pub struct DepthOpts {
 /// Model and device options shared by the commands that run the network.
 #[derive(Debug, Clone, Args)]
 pub struct ModelOpts {
-    /// UWNR weights: safetensors (authors' key names) or the authors' PyTorch checkpoint.
+    /// UWNR weights: safetensors (authors' key names) or the authors' PyTorch checkpoint; with
+    /// --method uwgan, a GAN generator (`generator.safetensors` of a `uwnr gan train` run).
     #[arg(long, value_name = "FILE")]
     pub weights: Option<PathBuf>,
     /// Compute device.
@@ -155,6 +159,10 @@ pub struct RenderArgs {
 pub enum MethodArg {
     /// The UWNR generator (neural rendering from the reference's light field).
     Uwnr,
+    /// The UWGAN-style GAN baseline (`uwnr gan train`): water parameters predicted from the clean
+    /// image, its depth and a code drawn from --seed; no reference needed. Bundled model unless
+    /// --weights names a trained generator.
+    Uwgan,
     /// UWCNN's synthesis with the ten Jerlov water types (no reference needed).
     Jerlov,
     /// Reference-based physical model in the manner of Hou et al. 2020 (SUID).
@@ -497,7 +505,8 @@ pub enum LightFieldLossArg {
     Released,
 }
 
-/// The arguments every trainer shares (`uwnr train`, `uwnr enhance train`).
+/// The data arguments of the paired trainers (`uwnr train`, `uwnr enhance train`), and the run
+/// options every trainer shares.
 #[derive(Debug, Args)]
 pub struct RunArgs {
     /// Training folders, each with `underwater/` + `clean/` (or `raw-890/` + `reference-890/`)
@@ -507,6 +516,17 @@ pub struct RunArgs {
     /// Validation folder (same layout), scored at native resolution (PSNR/SSIM).
     #[arg(long, value_name = "DIR")]
     pub val: Option<PathBuf>,
+    /// VGG19 weights (safetensors, torchvision keys `features.N.weight`) for the perceptual loss;
+    /// without them a 1 - SSIM structure term stands in.
+    #[arg(long, value_name = "FILE")]
+    pub vgg19: Option<PathBuf>,
+    #[command(flatten)]
+    pub opts: RunOpts,
+}
+
+/// The run options every trainer shares (`uwnr train`, `uwnr enhance train`, `uwnr gan train`).
+#[derive(Debug, Args)]
+pub struct RunOpts {
     /// Run folder: config, logs, curves, contact sheets, checkpoints.
     #[arg(long, value_name = "RUN_DIR")]
     pub run: PathBuf,
@@ -516,10 +536,6 @@ pub struct RunArgs {
     /// Continue the run in --run from its last checkpoint (its config.json is used).
     #[arg(long)]
     pub resume: bool,
-    /// VGG19 weights (safetensors, torchvision keys `features.N.weight`) for the perceptual loss;
-    /// without them a 1 - SSIM structure term stands in.
-    #[arg(long, value_name = "FILE")]
-    pub vgg19: Option<PathBuf>,
     /// Compute device.
     #[arg(long, value_enum, default_value_t = DeviceArg::Flex)]
     pub device: DeviceArg,
@@ -704,4 +720,43 @@ mod tests {
         assert!(parse_size("640").is_err());
         assert!(parse_size("0x4").is_err());
     }
+}
+
+#[derive(Debug, Args)]
+pub struct GanArgs {
+    #[command(subcommand)]
+    pub action: GanAction,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum GanAction {
+    /// Train the GAN baseline on unpaired folders (clean in-air images with depth, real
+    /// underwater references), with exact resume.
+    Train(GanTrainArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct GanTrainArgs {
+    /// Clean in-air folders: `rgb/` + `depth/` (RGB-D sets), a paired folder's `clean/`, or
+    /// images directly in the folder (depth from a `depth/` subfolder or the built-in prior).
+    #[arg(long, required = true, num_args = 1.., value_name = "DIR")]
+    pub clean: Vec<PathBuf>,
+    /// Real underwater folders: a paired folder's `underwater/`, UIEB's `raw-890/`, or images
+    /// directly in the folder.
+    #[arg(long, required = true, num_args = 1.., value_name = "DIR")]
+    pub references: Vec<PathBuf>,
+    #[command(flatten)]
+    pub opts: RunOpts,
+    /// Override: the adversarial loss.
+    #[arg(long, value_enum)]
+    pub loss: Option<GanLossArg>,
+}
+
+/// Adversarial losses of `uwnr gan train --loss`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum GanLossArg {
+    /// Sigmoid cross-entropy, the generator's non-saturating objective (UWGAN, WaterGAN).
+    NonSaturating,
+    /// Least squares (LSGAN).
+    LeastSquares,
 }

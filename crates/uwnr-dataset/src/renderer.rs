@@ -1,5 +1,6 @@
-//! What turns a clean image into its underwater twin in a dataset run: the UWNR network or one
-//! of the physical / statistical baselines of `uwnr-baselines`.
+//! What turns a clean image into its underwater twin in a dataset run: the UWNR network, the
+//! UWGAN-style GAN baseline of `uwnr-gan`, or one of the physical / statistical baselines of
+//! `uwnr-baselines`.
 
 use std::sync::Mutex;
 
@@ -24,10 +25,24 @@ pub struct Network {
     bf16: bool,
 }
 
+/// The GAN baseline's generator (it needs no reference: the water comes from a code drawn from
+/// each pair's seed).
+pub struct Gan {
+    /// Cloned once per worker thread.
+    generator: Mutex<uwnr_gan::Generator>,
+    device: uwnr_model::Device,
+    /// Where the weights came from (a path, or the bundled model).
+    weights: String,
+    /// A fingerprint of the weight bytes, so a resumed run cannot switch models silently.
+    fingerprint: String,
+}
+
 /// The rendering method of a dataset.
 pub enum Renderer {
     /// The UWNR network (needs references).
     Network(Box<Network>),
+    /// The UWGAN-style GAN baseline (uses no reference).
+    Gan(Box<Gan>),
     /// A baseline; its random parameters are drawn from each pair's seed.
     Baseline(Method),
 }
@@ -52,11 +67,29 @@ impl Renderer {
         }))
     }
 
-    /// The method's name (`uwnr`, `jerlov`, ...).
+    /// The GAN baseline's renderer, running on `device`. `weights` names the weights' origin;
+    /// `weight_bytes` is hashed into the fingerprint recorded in the dataset settings.
+    #[must_use]
+    pub fn gan(
+        generator: uwnr_gan::Generator,
+        device: uwnr_model::Device,
+        weights: String,
+        weight_bytes: &[u8],
+    ) -> Self {
+        Self::Gan(Box::new(Gan {
+            generator: Mutex::new(generator),
+            device,
+            weights,
+            fingerprint: format!("fnv1a64:{:016x}", fnv1a64(weight_bytes)),
+        }))
+    }
+
+    /// The method's name (`uwnr`, `uwgan`, `jerlov`, ...).
     #[must_use]
     pub fn name(&self) -> &'static str {
         match self {
             Self::Network(_) => "uwnr",
+            Self::Gan(_) => "uwgan",
             Self::Baseline(m) => m.name(),
         }
     }
@@ -71,6 +104,19 @@ impl Renderer {
                 config: &n.config,
                 precision: n.bf16.then_some("bf16"),
             }),
+            Self::Gan(g) => {
+                let config = g
+                    .generator
+                    .lock()
+                    .map_err(|_| DatasetError::Invalid("the generator's lock is poisoned".into()))?
+                    .config
+                    .clone();
+                serde_json::to_value(GanParams {
+                    weights: &g.weights,
+                    fingerprint: &g.fingerprint,
+                    config: &config,
+                })
+            }
             Self::Baseline(m) => serde_json::to_value(m),
         };
         value
@@ -84,7 +130,7 @@ impl Renderer {
     pub fn reference_style(&self, img: &Image) -> std::result::Result<ReferenceStyle, String> {
         match self {
             Self::Network(n) => ReferenceStyle::new(img, &n.config).map_err(|e| e.to_string()),
-            Self::Baseline(_) => uwnr_core::lightfield::light_field(img)
+            Self::Gan(_) | Self::Baseline(_) => uwnr_core::lightfield::light_field(img)
                 .map(ReferenceStyle::from_light_field)
                 .map_err(|e| e.to_string()),
         }
@@ -95,6 +141,7 @@ impl Renderer {
     pub fn needs_reference(&self) -> bool {
         match self {
             Self::Network(_) => true,
+            Self::Gan(_) => false,
             Self::Baseline(m) => m.needs_reference(),
         }
     }
@@ -105,6 +152,7 @@ impl Renderer {
     pub fn uses_reference(&self) -> bool {
         match self {
             Self::Network(_) => true,
+            Self::Gan(_) => false,
             Self::Baseline(Method::Seathru(p)) => {
                 matches!(p.coefficients, SeathruCoefficients::FromReference(_))
             }
@@ -126,9 +174,28 @@ impl Renderer {
                     net: n,
                 }
             }
+            Self::Gan(g) => Worker::Gan {
+                generator: Box::new(
+                    g.generator
+                        .lock()
+                        .map_err(|_| {
+                            DatasetError::Invalid("the generator's lock is poisoned".into())
+                        })?
+                        .clone(),
+                ),
+                gan: g,
+            },
             Self::Baseline(m) => Worker::Baseline(m),
         })
     }
+}
+
+/// What the settings record of the GAN baseline.
+#[derive(serde::Serialize)]
+struct GanParams<'a> {
+    weights: &'a str,
+    fingerprint: &'a str,
+    config: &'a uwnr_gan::GeneratorConfig,
 }
 
 /// What the settings record of the network.
@@ -148,6 +215,10 @@ pub enum Worker<'a> {
     Network {
         generator: Box<Generator>,
         net: &'a Network,
+    },
+    Gan {
+        generator: Box<uwnr_gan::Generator>,
+        gan: &'a Gan,
     },
     Baseline(&'a Method),
 }
@@ -192,6 +263,22 @@ impl Worker<'_> {
                     )
                     .map_err(|e| format!("rendering: {e}"))?;
                 Ok((out, json!({ "weights": net.weights })))
+            }
+            Self::Gan { generator, gan } => {
+                let (out, v) =
+                    uwnr_gan::render_with_values(generator, clean, depth, seed, &gan.device)
+                        .map_err(|e| format!("rendering with uwgan: {e}"))?;
+                Ok((
+                    out,
+                    json!({
+                        "weights": gan.weights,
+                        "z_seed": seed,
+                        "beta": v.beta,
+                        "backlight": v.backlight,
+                        "vignette": v.vignette,
+                        "gain": v.gain,
+                    }),
+                ))
             }
             Self::Baseline(method) => {
                 let input = RenderInput {

@@ -23,4 +23,7 @@ pub use model::{
 };
 pub use train::{GanLoss, GanTrainConfig, GanTrainSummary, train};
 pub use uwnr_run::{Event, TrainOptions};
-pub use weights::{GENERATOR_FILE, load_generator, save_generator};
+pub use weights::{
+    BUNDLED_GAN_NAME, GENERATOR_FILE, bundled_gan_weights, generator_or_bundled, load_generator,
+    load_generator_from_bytes, save_generator,
+};

@@ -6,7 +6,7 @@ use anyhow::{Context, Result};
 use uwnr_core::io::DecodeLimits;
 use uwnr_dataset::{Event, Renderer, RunOptions, Spec};
 
-use crate::cli::{DatasetAction, DatasetArgs, DatasetMakeArgs};
+use crate::cli::{DatasetAction, DatasetArgs, DatasetMakeArgs, MethodArg};
 
 /// Problems printed by `verify` before the rest are only counted.
 const MAX_LISTED_PROBLEMS: usize = 200;
@@ -51,6 +51,9 @@ fn renderer(a: &DatasetMakeArgs) -> Result<Renderer> {
     super::method::refuse_inapplicable(&[a.method], &a.baseline, have_refs)?;
     if let Some(method) = super::method::baseline_method(a.method, &a.baseline, have_refs)? {
         return Ok(Renderer::Baseline(method));
+    }
+    if a.method == MethodArg::Uwgan {
+        return super::gan_renderer(&a.model, a.precision);
     }
     super::network_renderer_at(&a.model, a.precision)
 }

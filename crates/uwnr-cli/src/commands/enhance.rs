@@ -31,20 +31,20 @@ pub fn run(a: &EnhanceArgs) -> Result<ExitCode> {
 
 fn train(a: &EnhanceTrainArgs) -> Result<ExitCode> {
     let c = &a.common;
-    let cfg: EnhanceTrainConfig = training::config(c)?;
+    let cfg: EnhanceTrainConfig = training::config(&c.opts)?;
     cfg.validate()
         .context("checking the enhancer training config")?;
-    let device = super::device(c.device)?;
-    let mut opts = EnhanceTrainOptions::new(c.data.clone(), c.run.clone(), device);
+    let device = super::device(c.opts.device)?;
+    let mut opts = EnhanceTrainOptions::new(c.data.clone(), c.opts.run.clone(), device);
     opts.val = c.val.clone();
-    opts.resume = c.resume;
+    opts.resume = c.opts.resume;
     opts.vgg19 = c.vgg19.clone();
-    opts.max_steps = c.max_steps;
+    opts.max_steps = c.opts.max_steps;
 
     let stop = training::stop_flag()?;
     let bar = training::progress();
     let summary = uwnr_enhance::train(&cfg, &opts, &stop, &mut |e| training::show(&bar, e))
-        .with_context(|| format!("training run {}", c.run.display()))?;
+        .with_context(|| format!("training run {}", c.opts.run.display()))?;
     bar.finish_and_clear();
     eprintln!(
         "{} at step {} ({} steps this session); weights: {}{}",

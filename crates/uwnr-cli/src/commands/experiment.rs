@@ -96,6 +96,10 @@ pub struct DownstreamArgs {
     pub depth: DepthOpts,
     #[command(flatten)]
     pub model: ModelOpts,
+    /// GAN generator for the uwgan set (`generator.safetensors` of a `uwnr gan train` run);
+    /// default the bundled one. (--weights is the UWNR network's.)
+    #[arg(long, value_name = "FILE")]
+    pub gan_weights: Option<PathBuf>,
 }
 
 pub fn run(a: &ExperimentArgs) -> Result<ExitCode> {
@@ -111,6 +115,13 @@ fn training_sets(a: &DownstreamArgs) -> Result<Vec<TrainingSet>> {
     for &m in &a.methods {
         let renderer = match super::method::baseline_method(m, &a.baseline, have_refs)? {
             Some(method) => Renderer::Baseline(method),
+            None if m == MethodArg::Uwgan => super::gan_renderer(
+                &crate::cli::ModelOpts {
+                    weights: a.gan_weights.clone(),
+                    ..a.model.clone()
+                },
+                crate::cli::PrecisionArg::F32,
+            )?,
             None => super::network_renderer(&a.model)?,
         };
         sets.push(TrainingSet {

@@ -91,6 +91,7 @@ pub fn refuse_inapplicable(
 pub fn method_name(m: MethodArg) -> &'static str {
     match m {
         MethodArg::Uwnr => "uwnr",
+        MethodArg::Uwgan => "uwgan",
         MethodArg::Jerlov => "jerlov",
         MethodArg::Uisa => "uisa",
         MethodArg::Seathru => "seathru",
@@ -98,7 +99,8 @@ pub fn method_name(m: MethodArg) -> &'static str {
     }
 }
 
-/// The baseline named by `--method` with its flags applied; `None` for `uwnr`. Callers first
+/// The baseline named by `--method` with its flags applied; `None` for the networks (`uwnr`,
+/// `uwgan`). Callers first
 /// refuse flags that apply to none of their methods ([`refuse_inapplicable`]).
 pub fn baseline_method(
     method: MethodArg,
@@ -116,7 +118,7 @@ pub fn baseline_method(
         None => None,
     };
     let mut m = match method {
-        MethodArg::Uwnr => return Ok(None),
+        MethodArg::Uwnr | MethodArg::Uwgan => return Ok(None),
         MethodArg::Jerlov => match from_file {
             Some(m @ Method::Jerlov(_)) => m,
             None => Method::Jerlov(JerlovParams::default()),

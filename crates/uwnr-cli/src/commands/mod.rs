@@ -6,6 +6,7 @@ mod depth;
 mod enhance;
 mod eval;
 pub(crate) mod experiment;
+mod gan;
 mod info;
 mod lightfield;
 mod method;
@@ -39,6 +40,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
         Command::Dataset(a) => dataset::run(&a),
         Command::Experiment(a) => experiment::run(&a),
         Command::Enhance(a) => enhance::run(&a),
+        Command::Gan(a) => gan::run(&a),
     }
 }
 
@@ -119,6 +121,24 @@ pub fn load_network(
             "this build has no bundled model: pass --weights FILE (safetensors or the authors' checkpoint)"
         ),
     }
+}
+
+/// The GAN baseline's generator from `--weights`, or the bundled one, as a dataset renderer. It
+/// runs on burn (`--device engine` means flex here); bf16 products are an engine feature.
+pub fn gan_renderer(
+    model: &crate::cli::ModelOpts,
+    precision: PrecisionArg,
+) -> Result<uwnr_dataset::Renderer> {
+    if precision == PrecisionArg::Bf16 {
+        bail!("--precision bf16 applies to --method uwnr only (the UWGAN generator runs in f32)");
+    }
+    let device = device(model.device)?;
+    let (generator, bytes, source) =
+        uwnr_gan::generator_or_bundled(model.weights.as_deref(), &device)
+            .context("loading the UWGAN generator")?;
+    Ok(uwnr_dataset::Renderer::gan(
+        generator, device, source, &bytes,
+    ))
 }
 
 /// The depth source chosen by the depth options.

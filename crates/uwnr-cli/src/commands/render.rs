@@ -1,5 +1,6 @@
 //! `uwnr render`: clean photos + real underwater references -> underwater renders, at each clean
-//! image's own resolution, with the UWNR network (default) or a physical / statistical baseline.
+//! image's own resolution, with the UWNR network (default), the UWGAN-style GAN baseline (no
+//! reference) or a physical / statistical baseline.
 
 use std::collections::HashMap;
 use std::path::Path;
@@ -11,7 +12,7 @@ use uwnr_core::Image;
 use uwnr_core::io::{DecodeLimits, is_image_path, load_rgb, save_rgb};
 use uwnr_model::{Network, ReferenceStyle, RenderOptions};
 
-use crate::cli::RenderArgs;
+use crate::cli::{MethodArg, PrecisionArg, RenderArgs};
 use crate::inputs::{Job, expand_images, plan_jobs};
 use crate::report::Batch;
 
@@ -20,6 +21,12 @@ enum Renderer {
     Network {
         network: Box<Network>,
         opts: RenderOptions,
+    },
+    /// The GAN baseline: the water code of job `index` is drawn from `item_seed(seed, index)`.
+    Gan {
+        generator: Box<uwnr_gan::Generator>,
+        device: uwnr_model::Device,
+        seed: u64,
     },
     Baseline {
         method: Method,
@@ -44,9 +51,19 @@ pub fn run(a: &RenderArgs) -> Result<ExitCode> {
     };
     super::method::refuse_inapplicable(&[a.method], &a.baseline, !refs.is_empty())?;
     let baseline = super::method::baseline_method(a.method, &a.baseline, !refs.is_empty())?;
-    if baseline.is_none() && refs.is_empty() {
+    let gan = a.method == MethodArg::Uwgan;
+    if baseline.is_none() && !gan && refs.is_empty() {
         bail!("--method uwnr needs --reference (a real underwater image whose style is rendered)");
     }
+    // The GAN reads no reference: its water comes from the code drawn from --seed.
+    let refs = if gan {
+        if !refs.is_empty() {
+            eprintln!("note: --method uwgan uses no reference; --reference is ignored");
+        }
+        Vec::new()
+    } else {
+        refs
+    };
 
     let single_file = cleans.len() == 1 && refs.len() <= 1 && is_image_path(&a.output);
     let jobs: Vec<Job> = if single_file {
@@ -82,6 +99,22 @@ pub fn run(a: &RenderArgs) -> Result<ExitCode> {
             method,
             seed: a.seed,
         },
+        None if gan => {
+            if a.precision == PrecisionArg::Bf16 {
+                bail!(
+                    "--precision bf16 applies to --method uwnr only (the UWGAN generator runs in f32)"
+                );
+            }
+            let device = super::device(a.model.device)?;
+            let (generator, _bytes, _source) =
+                uwnr_gan::generator_or_bundled(a.model.weights.as_deref(), &device)
+                    .context("loading the UWGAN generator")?;
+            Renderer::Gan {
+                generator: Box::new(generator),
+                device,
+                seed: a.seed,
+            }
+        }
         None => {
             let backend = super::backend_at(a.model.device, a.precision)?;
             let (network, _info, _source) =
@@ -155,7 +188,7 @@ fn reference_input(path: &Path, renderer: &Renderer, limits: &DecodeLimits) -> R
                 .style(&reference)
                 .with_context(|| format!("style of {}", path.display()))?,
         ),
-        Renderer::Baseline { .. } => RefInput::Image(reference),
+        Renderer::Baseline { .. } | Renderer::Gan { .. } => RefInput::Image(reference),
     })
 }
 
@@ -199,6 +232,21 @@ fn render_one(
                 .with_context(|| format!("rendering with {}", method.name()))?
                 .image
         }
+        (
+            Renderer::Gan {
+                generator,
+                device,
+                seed,
+            },
+            _,
+        ) => uwnr_gan::render(
+            generator,
+            &clean,
+            &depth.map,
+            uwnr_baselines::item_seed(*seed, index),
+            device,
+        )
+        .context("rendering with uwgan")?,
         (Renderer::Network { .. }, _) => bail!("the network needs a reference"),
     };
     save_rgb(output, &out).with_context(|| format!("writing {}", output.display()))?;

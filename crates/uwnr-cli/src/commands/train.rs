@@ -12,18 +12,18 @@ use crate::cli::{LightFieldLossArg, TrainArgs};
 pub fn run(a: &TrainArgs) -> Result<ExitCode> {
     let c = &a.common;
     let cfg = config(a)?;
-    let device = super::device(c.device)?;
-    let mut opts = TrainOptions::new(c.data.clone(), c.run.clone(), device);
+    let device = super::device(c.opts.device)?;
+    let mut opts = TrainOptions::new(c.data.clone(), c.opts.run.clone(), device);
     opts.val = c.val.clone();
-    opts.resume = c.resume;
+    opts.resume = c.opts.resume;
     opts.vgg19 = c.vgg19.clone();
-    opts.max_steps = c.max_steps;
+    opts.max_steps = c.opts.max_steps;
     opts.val_refs = a.val_refs.clone();
 
     let stop = training::stop_flag()?;
     let bar = training::progress();
     let summary = uwnr_train::train(&cfg, &opts, &stop, &mut |e| training::show(&bar, e))
-        .with_context(|| format!("training run {}", c.run.display()))?;
+        .with_context(|| format!("training run {}", c.opts.run.display()))?;
     bar.finish_and_clear();
     eprintln!(
         "{} at step {} ({} steps this session){}",
@@ -40,7 +40,7 @@ pub fn run(a: &TrainArgs) -> Result<ExitCode> {
 
 /// The run's config ([`training::config`]), then the overrides only `uwnr train` has.
 fn config(a: &TrainArgs) -> Result<TrainConfig> {
-    let mut cfg: TrainConfig = training::config(&a.common)?;
+    let mut cfg: TrainConfig = training::config(&a.common.opts)?;
     if let Some(v) = a.width {
         cfg.model = GeneratorConfig {
             base_width: v,

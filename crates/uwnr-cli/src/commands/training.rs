@@ -1,4 +1,4 @@
-//! What `uwnr train` and `uwnr enhance train` share: the run's config (the run folder's own on
+//! What `uwnr train`, `uwnr enhance train` and `uwnr gan train` share: the run's config (the run folder's own on
 //! resume, else `--config` or the defaults, then the common overrides), Ctrl-C, the progress
 //! bar fed by uwnr-run's events, and the closing line.
 
@@ -7,13 +7,14 @@ use std::sync::atomic::AtomicBool;
 use anyhow::{Context, Result, bail};
 use indicatif::ProgressBar;
 use uwnr_enhance::EnhanceTrainConfig;
+use uwnr_gan::GanTrainConfig;
 use uwnr_run::Event;
 use uwnr_run::folder::{CONFIG_FILE, RunConfig};
 use uwnr_train::TrainConfig;
 
-use crate::cli::RunArgs;
+use crate::cli::RunOpts;
 
-/// The settings `RunArgs` can override, in a trainer's config.
+/// The settings `RunOpts` can override, in a trainer's config.
 pub struct Common<'a> {
     pub epochs: &'a mut usize,
     pub batch_size: &'a mut usize,
@@ -25,11 +26,11 @@ pub struct Common<'a> {
 
 /// A trainer's config as the command line sees it.
 pub trait TrainerConfig: RunConfig + Default {
-    /// Its fields that [`RunArgs`] overrides.
+    /// Its fields that [`RunOpts`] overrides.
     fn common(&mut self) -> Common<'_>;
 }
 
-/// Both trainers' configs name the common settings alike.
+/// The trainers' configs name the common settings alike.
 macro_rules! trainer_config {
     ($($t:ty),*) => {$(
         impl TrainerConfig for $t {
@@ -47,11 +48,11 @@ macro_rules! trainer_config {
     )*};
 }
 
-trainer_config!(TrainConfig, EnhanceTrainConfig);
+trainer_config!(TrainConfig, EnhanceTrainConfig, GanTrainConfig);
 
 /// The run's config: the run folder's `config.json` on resume, else `--config` or the
-/// defaults; then the command-line overrides of [`RunArgs`] (the caller applies its own).
-pub fn config<C: TrainerConfig>(a: &RunArgs) -> Result<C> {
+/// defaults; then the command-line overrides of [`RunOpts`] (the caller applies its own).
+pub fn config<C: TrainerConfig>(a: &RunOpts) -> Result<C> {
     let saved = a.run.join(CONFIG_FILE);
     let mut cfg = if a.resume {
         if a.config.is_some() {

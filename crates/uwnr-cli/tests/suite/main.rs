@@ -7,4 +7,5 @@ mod dataset;
 mod depth_response;
 mod enhance;
 mod experiment;
+mod gan;
 mod golden;

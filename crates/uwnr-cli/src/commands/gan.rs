@@ -1,0 +1,58 @@
+//! `uwnr gan`: the UWGAN-style GAN baseline (library: `uwnr_gan`).
+//!
+//! - `gan train`: unpaired adversarial training, with exact resume; rendering with the trained
+//!   generator is `uwnr render --method uwgan` (and `uwnr dataset --method uwgan`).
+
+use std::process::ExitCode;
+
+use anyhow::{Context, Result};
+use uwnr_gan::{GanLoss, GanTrainConfig, TrainOptions};
+
+use super::training;
+use crate::cli::{GanAction, GanArgs, GanLossArg, GanTrainArgs};
+
+pub fn run(a: &GanArgs) -> Result<ExitCode> {
+    match &a.action {
+        GanAction::Train(t) => train(t),
+    }
+}
+
+fn train(a: &GanTrainArgs) -> Result<ExitCode> {
+    let c = &a.opts;
+    let mut cfg: GanTrainConfig = training::config(c)?;
+    if let Some(l) = a.loss {
+        cfg.loss = match l {
+            GanLossArg::NonSaturating => GanLoss::NonSaturating,
+            GanLossArg::LeastSquares => GanLoss::LeastSquares,
+        };
+    }
+    cfg.validate().context("checking the GAN training config")?;
+    let device = super::device(c.device)?;
+    let mut opts = TrainOptions::new(a.clean.clone(), c.run.clone(), device);
+    opts.resume = c.resume;
+    opts.max_steps = c.max_steps;
+
+    let stop = training::stop_flag()?;
+    let bar = training::progress();
+    let summary = uwnr_gan::train(&cfg, &opts, &a.references, &stop, &mut |e| {
+        training::show(&bar, e);
+    })
+    .with_context(|| format!("training run {}", c.run.display()))?;
+    bar.finish_and_clear();
+    eprintln!(
+        "{} at step {} ({} steps this session); generator: {}{}",
+        training::ended(summary.finished, summary.interrupted),
+        summary.step,
+        summary.session_steps,
+        summary.last_weights.display(),
+        summary
+            .best
+            .zip(summary.best_weights.as_ref())
+            .map(|((p, s), w)| format!(
+                "; best colour-moment PSNR {p:.2} dB at step {s}: {}",
+                w.display()
+            ))
+            .unwrap_or_default()
+    );
+    Ok(ExitCode::SUCCESS)
+}
