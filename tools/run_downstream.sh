@@ -14,6 +14,10 @@ DATA=${DATA:-../shared/data}
 OUT=${OUT:-../uwnr-runs/downstream-v1}
 DEVICE=${DEVICE:-tch}
 BIN=${BIN:-target/release/uwnr}
+# METHODS and REAL choose the rows: e.g. METHODS=uwgan REAL= adds one method's row to an earlier
+# run's table (the same seed, budget and tests give the same conditions).
+METHODS=${METHODS:-uwnr,uwgan,jerlov,uisa,seathru,reinhard}
+REAL=${REAL-$DATA/paired/euvp-dark}
 export LIBTORCH_USE_PYTORCH=1
 if [ "$DEVICE" = tch ] && [ -z "${LIBTORCH:-}" ]; then
   TORCH_LIB=$(python3 -c 'import os, torch; print(os.path.join(os.path.dirname(torch.__file__), "lib"))')
@@ -24,6 +28,6 @@ exec "$BIN" experiment downstream \
   --clean "$DATA/inair" "$DATA"/rgbd/*/rgb \
   --references "$DATA/references" \
   --test "$DATA/paired/uieb-val" "$DATA/paired/lsui" \
-  --real "$DATA/paired/euvp-dark" \
-  --methods uwnr,jerlov,uisa,seathru,reinhard --per-image 4 --size 256x256 \
+  ${REAL:+--real "$REAL"} \
+  --methods "$METHODS" --per-image 4 --size 256x256 \
   --budget 6000 --seed 0 --device "$DEVICE" --out "$OUT"

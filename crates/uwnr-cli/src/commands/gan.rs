@@ -35,7 +35,7 @@ fn train(a: &GanTrainArgs) -> Result<ExitCode> {
     let stop = training::stop_flag()?;
     let bar = training::progress();
     let summary = uwnr_gan::train(&cfg, &opts, &a.references, &stop, &mut |e| {
-        training::show(&bar, e);
+        training::show_scored(&bar, e, ["colour-moment PSNR", "SSIM to clean"]);
     })
     .with_context(|| format!("training run {}", c.run.display()))?;
     bar.finish_and_clear();

@@ -102,6 +102,11 @@ pub fn progress() -> ProgressBar {
 
 /// Shows one event of the loop on `bar`.
 pub fn show(bar: &ProgressBar, e: Event<'_>) {
+    show_scored(bar, e, ["PSNR", "SSIM"]);
+}
+
+/// [`show`], naming the two validation scores (trainers without pairs report stand-ins).
+pub fn show_scored(bar: &ProgressBar, e: Event<'_>, [psnr, ssim]: [&str; 2]) {
     match e {
         Event::Message(m) => bar.suspend(|| eprintln!("{m}")),
         Event::Started {
@@ -123,7 +128,7 @@ pub fn show(bar: &ProgressBar, e: Event<'_>) {
         }
         Event::Validation(v) => bar.suspend(|| {
             eprintln!(
-                "validation at step {} (epoch {}): PSNR {:.2} dB, SSIM {:.4} ({:.0} s)",
+                "validation at step {} (epoch {}): {psnr} {:.2} dB, {ssim} {:.4} ({:.0} s)",
                 v.step, v.epoch, v.psnr, v.ssim, v.secs
             );
         }),
