@@ -52,7 +52,7 @@ pub struct DownstreamArgs {
         long,
         value_enum,
         value_delimiter = ',',
-        default_value = "uwnr,jerlov,uisa,seathru,reinhard"
+        default_value = "uwnr,uwgan,jerlov,uisa,seathru,reinhard"
     )]
     pub methods: Vec<MethodArg>,
     /// Renders per clean image, each after a different reference.
