@@ -75,8 +75,8 @@ class UnderwaterAugment:
 
     :param references: a folder of real underwater images, one image path, or a sequence of
         images (paths, arrays, PIL images, :class:`uwnr.Reference`).
-    :param methods: the methods to draw from, uniformly (``"uwnr"``, ``"jerlov"``, ``"uisa"``,
-        ``"seathru"``, ``"reinhard"``).
+    :param methods: the methods to draw from, uniformly (``"uwnr"``, ``"uwgan"``, ``"jerlov"``,
+        ``"uisa"``, ``"seathru"``, ``"reinhard"``; ``"jerlov"`` and ``"uwgan"`` read no reference).
     :param p: probability of rendering; otherwise the input is returned unchanged.
     :param seed: the base of the augmentation's random stream (see the module docs).
     :param weights: UWNR weights for ``"uwnr"`` (``None``: the bundled model).

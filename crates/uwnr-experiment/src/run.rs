@@ -512,8 +512,12 @@ pub fn run_downstream(
                 stop,
                 &mut |e| observer(Event::Dataset(name, e)),
             );
-            timing.dataset_secs += start.elapsed().as_secs_f64();
-            write_json(&timing_path(&folder), &timing)?;
+            // Time counts only when this session rendered something: checking a finished set
+            // again is not rendering (and would make a resumed table differ from the first).
+            if !summary.as_ref().is_ok_and(|s| s.rendered == 0) {
+                timing.dataset_secs += start.elapsed().as_secs_f64();
+                write_json(&timing_path(&folder), &timing)?;
+            }
             let summary = summary.map_err(|source| ExperimentError::Dataset {
                 name: name.clone(),
                 source,
