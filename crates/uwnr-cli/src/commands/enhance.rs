@@ -47,19 +47,19 @@ fn train(a: &EnhanceTrainArgs) -> Result<ExitCode> {
         .with_context(|| format!("training run {}", c.opts.run.display()))?;
     bar.finish_and_clear();
     eprintln!(
-        "{} at step {} ({} steps this session); weights: {}{}",
-        training::ended(summary.finished, summary.interrupted),
-        summary.step,
-        summary.session_steps,
-        summary.last_weights.display(),
-        summary
-            .best
-            .zip(summary.best_weights.as_ref())
-            .map(|((p, s), w)| format!(
-                "; best validation PSNR {p:.2} dB at step {s}: {}",
-                w.display()
-            ))
-            .unwrap_or_default()
+        "{}",
+        training::closing_line(&training::Ending {
+            finished: summary.finished,
+            interrupted: summary.interrupted,
+            step: summary.step,
+            session_steps: summary.session_steps,
+            what: "weights",
+            last_weights: &summary.last_weights,
+            best: summary
+                .best
+                .zip(summary.best_weights.as_deref())
+                .map(|((p, s), w)| ("validation PSNR", p, s, w)),
+        })
     );
     Ok(ExitCode::SUCCESS)
 }

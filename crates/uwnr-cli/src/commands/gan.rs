@@ -40,19 +40,19 @@ fn train(a: &GanTrainArgs) -> Result<ExitCode> {
     .with_context(|| format!("training run {}", c.run.display()))?;
     bar.finish_and_clear();
     eprintln!(
-        "{} at step {} ({} steps this session); generator: {}{}",
-        training::ended(summary.finished, summary.interrupted),
-        summary.step,
-        summary.session_steps,
-        summary.last_weights.display(),
-        summary
-            .best
-            .zip(summary.best_weights.as_ref())
-            .map(|((p, s), w)| format!(
-                "; best colour-moment PSNR {p:.2} dB at step {s}: {}",
-                w.display()
-            ))
-            .unwrap_or_default()
+        "{}",
+        training::closing_line(&training::Ending {
+            finished: summary.finished,
+            interrupted: summary.interrupted,
+            step: summary.step,
+            session_steps: summary.session_steps,
+            what: "generator",
+            last_weights: &summary.last_weights,
+            best: summary
+                .best
+                .zip(summary.best_weights.as_deref())
+                .map(|((p, s), w)| ("colour-moment PSNR", p, s, w)),
+        })
     );
     Ok(ExitCode::SUCCESS)
 }

@@ -123,12 +123,13 @@ pub fn load_network(
     }
 }
 
-/// The GAN baseline's generator from `--weights`, or the bundled one, as a dataset renderer. It
-/// runs on burn (`--device engine` means flex here); bf16 products are an engine feature.
-pub fn gan_renderer(
+/// The GAN baseline's generator from `--weights`, or the bundled one, with the device it runs
+/// on, its weight bytes and where they came from. It runs on burn (`--device engine` means flex
+/// here); bf16 products are an engine feature, so `--precision bf16` is refused.
+pub fn load_gan(
     model: &crate::cli::ModelOpts,
     precision: PrecisionArg,
-) -> Result<uwnr_dataset::Renderer> {
+) -> Result<(uwnr_gan::Generator, Device, Vec<u8>, String)> {
     if precision == PrecisionArg::Bf16 {
         bail!("--precision bf16 applies to --method uwnr only (the UWGAN generator runs in f32)");
     }
@@ -136,6 +137,15 @@ pub fn gan_renderer(
     let (generator, bytes, source) =
         uwnr_gan::generator_or_bundled(model.weights.as_deref(), &device)
             .context("loading the UWGAN generator")?;
+    Ok((generator, device, bytes, source))
+}
+
+/// [`load_gan`] as a dataset renderer.
+pub fn gan_renderer(
+    model: &crate::cli::ModelOpts,
+    precision: PrecisionArg,
+) -> Result<uwnr_dataset::Renderer> {
+    let (generator, device, bytes, source) = load_gan(model, precision)?;
     Ok(uwnr_dataset::Renderer::gan(
         generator, device, source, &bytes,
     ))

@@ -12,7 +12,7 @@ use uwnr_core::Image;
 use uwnr_core::io::{DecodeLimits, is_image_path, load_rgb, save_rgb};
 use uwnr_model::{Network, ReferenceStyle, RenderOptions};
 
-use crate::cli::{MethodArg, PrecisionArg, RenderArgs};
+use crate::cli::{MethodArg, RenderArgs};
 use crate::inputs::{Job, expand_images, plan_jobs};
 use crate::report::Batch;
 
@@ -100,15 +100,7 @@ pub fn run(a: &RenderArgs) -> Result<ExitCode> {
             seed: a.seed,
         },
         None if gan => {
-            if a.precision == PrecisionArg::Bf16 {
-                bail!(
-                    "--precision bf16 applies to --method uwnr only (the UWGAN generator runs in f32)"
-                );
-            }
-            let device = super::device(a.model.device)?;
-            let (generator, _bytes, _source) =
-                uwnr_gan::generator_or_bundled(a.model.weights.as_deref(), &device)
-                    .context("loading the UWGAN generator")?;
+            let (generator, device, _bytes, _source) = super::load_gan(&a.model, a.precision)?;
             Renderer::Gan {
                 generator: Box::new(generator),
                 device,

@@ -138,6 +138,34 @@ pub fn show_scored(bar: &ProgressBar, e: Event<'_>, [psnr, ssim]: [&str; 2]) {
     }
 }
 
+/// What a session of a trainer that exports weights ended with, for [`closing_line`].
+pub struct Ending<'a> {
+    pub finished: bool,
+    pub interrupted: bool,
+    pub step: usize,
+    pub session_steps: usize,
+    /// What the weights are called (`weights`, `generator`).
+    pub what: &'a str,
+    pub last_weights: &'a std::path::Path,
+    /// The validation score's name, the best value, its step and weights.
+    pub best: Option<(&'a str, f64, usize, &'a std::path::Path)>,
+}
+
+/// The closing line of such a session: how it ended, where the weights are, the best checkpoint.
+pub fn closing_line(e: &Ending<'_>) -> String {
+    format!(
+        "{} at step {} ({} steps this session); {}: {}{}",
+        ended(e.finished, e.interrupted),
+        e.step,
+        e.session_steps,
+        e.what,
+        e.last_weights.display(),
+        e.best
+            .map(|(name, p, s, w)| format!("; best {name} {p:.2} dB at step {s}: {}", w.display()))
+            .unwrap_or_default()
+    )
+}
+
 /// How the session ended, as the closing line says it.
 pub fn ended(finished: bool, interrupted: bool) -> &'static str {
     if finished {
