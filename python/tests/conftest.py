@@ -3,10 +3,12 @@
 
 import os
 import shutil
+import subprocess
 from pathlib import Path
 
 import numpy as np
 import pytest
+from PIL import Image
 
 ROOT = Path(__file__).resolve().parents[2]
 SAMPLES = ROOT / "assets" / "samples"
@@ -67,3 +69,15 @@ def network():
     if not uwnr.HAS_BUNDLED_MODEL:
         pytest.skip("this build has no bundled model")
     return uwnr.Renderer()
+
+
+def run_cli(cli, *args):
+    """Runs the `uwnr` binary with `args`; fails the test on a non-zero exit."""
+    proc = subprocess.run([str(cli), *map(str, args)], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    return proc
+
+
+def read_png(path):
+    """An image file as an RGB uint8 array."""
+    return np.asarray(Image.open(path).convert("RGB"))

@@ -1,13 +1,11 @@
 """The GAN baseline (method "uwgan"): the command line's pixels, seeds, no reference, errors."""
 
-import subprocess
-
 import numpy as np
 import pytest
 from PIL import Image
 
 import uwnr
-from conftest import gradient, water
+from conftest import gradient, read_png, run_cli, water
 
 
 @pytest.fixture(scope="module")
@@ -24,13 +22,9 @@ def test_renders_as_the_cli_writes(cli, gan, tmp_path):
     for i, c in enumerate(cleans):
         Image.fromarray(c).save(src / f"c{i}.png")
     out = tmp_path / "out"
-    proc = subprocess.run(
-        [str(cli), "render", str(src), "--method", "uwgan", "--seed", "7", "--output", str(out)],
-        capture_output=True, text=True,
-    )
-    assert proc.returncode == 0, proc.stderr
+    run_cli(cli, "render", src, "--method", "uwgan", "--seed", 7, "--output", out)
     for i, g in enumerate(gan.render_batch(cleans)):
-        assert np.array_equal(g, np.asarray(Image.open(out / f"c{i}.png").convert("RGB"))), i
+        assert np.array_equal(g, read_png(out / f"c{i}.png")), i
 
 
 def test_seeds_choose_the_water_and_references_are_not_read(gan):

@@ -1,6 +1,5 @@
 """Rendering: the same pixels as the command line, every method, dtypes, shapes and threads."""
 
-import subprocess
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
@@ -8,17 +7,7 @@ import pytest
 from PIL import Image
 
 import uwnr
-from conftest import gradient, water
-
-
-def run_cli(cli, *args):
-    proc = subprocess.run([str(cli), *map(str, args)], capture_output=True, text=True)
-    assert proc.returncode == 0, proc.stderr
-    return proc
-
-
-def read_png(path):
-    return np.asarray(Image.open(path).convert("RGB"))
+from conftest import gradient, read_png, run_cli, water
 
 
 @pytest.fixture(scope="module")

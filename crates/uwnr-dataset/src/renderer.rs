@@ -30,6 +30,7 @@ pub struct Network {
 pub struct Gan {
     /// Cloned once per worker thread.
     generator: Mutex<uwnr_gan::Generator>,
+    config: uwnr_gan::GeneratorConfig,
     device: uwnr_model::Device,
     /// Where the weights came from (a path, or the bundled model).
     weights: String,
@@ -77,6 +78,7 @@ impl Renderer {
         weight_bytes: &[u8],
     ) -> Self {
         Self::Gan(Box::new(Gan {
+            config: generator.config.clone(),
             generator: Mutex::new(generator),
             device,
             weights,
@@ -104,19 +106,11 @@ impl Renderer {
                 config: &n.config,
                 precision: n.bf16.then_some("bf16"),
             }),
-            Self::Gan(g) => {
-                let config = g
-                    .generator
-                    .lock()
-                    .map_err(|_| DatasetError::Invalid("the generator's lock is poisoned".into()))?
-                    .config
-                    .clone();
-                serde_json::to_value(GanParams {
-                    weights: &g.weights,
-                    fingerprint: &g.fingerprint,
-                    config: &config,
-                })
-            }
+            Self::Gan(g) => serde_json::to_value(GanParams {
+                weights: &g.weights,
+                fingerprint: &g.fingerprint,
+                config: &g.config,
+            }),
             Self::Baseline(m) => serde_json::to_value(m),
         };
         value
