@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
-# Trains the bundled default model (v3, the `anchored` variant: crates/uwnr-model/src/style.rs)
-# with config tools/train_default_model.json: base width 32, inputs clean + absolute light
-# field + the Reinhard lαβ anchor, output a smooth gain and offset on the anchor, then the
+# Trains the bundled default model (v4, the `anchored` variant with detail retention:
+# crates/uwnr-model/src/style.rs) with config tools/train_default_model.json (CONFIG= another):
+# base width 32, inputs clean + absolute light field + the anchor (Reinhard lαβ transfer with
+# the reference's light field and share of detail retained), output a smooth gain and offset on the anchor, then the
 # depth-driven image-formation stage (depth is not fed to the network). Loss: L1 + 0.5 (1 - SSIM).
 # Data: the training part of paired/lsui only (tools/lsui_split.sh; the 27 pairs of
 # assets/splits/lsui-test.txt are never seen), listed 8 times so an epoch has 648 samples;
@@ -17,7 +18,7 @@
 set -euo pipefail
 DATA=${DATA:-../shared/data}
 SPLITS=${SPLITS:-../uwnr-splits}
-RUN=${RUN:-../uwnr-runs/default-v3}
+RUN=${RUN:-../uwnr-runs/default-v4}
 DEVICE=${DEVICE:-tch}
 BIN=${BIN:-target/release/uwnr}
 export LIBTORCH_USE_PYTORCH=1
@@ -27,14 +28,15 @@ if [ -z "${LIBTORCH:-}" ]; then
 fi
 [ -d "$SPLITS/lsui-train" ] || bash tools/lsui_split.sh "$SPLITS"
 mkdir -p "$(dirname "$RUN")"
-CONFIG=tools/train_default_model.json
+CONFIG=${CONFIG:-tools/train_default_model.json}
 L="$SPLITS/lsui-train"
 ARGS=(train
   --data "$L" "$L" "$L" "$L" "$L" "$L" "$L" "$L"
   --val "$DATA/paired/uieb-val"
   --run "$RUN" --device "$DEVICE" --val-refs 20.96,29.44)
+# Extra arguments go to `uwnr train` (e.g. --max-steps N).
 if [ -f "$RUN/config.json" ]; then
-  exec "$BIN" "${ARGS[@]}" --resume
+  exec "$BIN" "${ARGS[@]}" --resume "$@"
 else
-  exec "$BIN" "${ARGS[@]}" --config "$CONFIG"
+  exec "$BIN" "${ARGS[@]}" --config "$CONFIG" "$@"
 fi

@@ -226,6 +226,7 @@ struct NativeReference {
     paper: OnceLock<Result<Image, String>>,
     absolute: OnceLock<Result<Image, String>>,
     water: OnceLock<Result<uwnr_model::Water, String>>,
+    detail: OnceLock<[f32; 3]>,
 }
 
 impl NativeReference {
@@ -245,15 +246,21 @@ impl NativeReference {
         let light_field = self.field(config.light_field)?.clone();
         let water = match config.variant {
             uwnr_model::Variant::Paper => None,
-            uwnr_model::Variant::Anchored => Some(
-                *self
+            uwnr_model::Variant::Anchored => {
+                let water = *self
                     .water
                     .get_or_init(|| {
                         uwnr_model::style::estimate_water(&self.image).map_err(|e| e.to_string())
                     })
                     .as_ref()
-                    .map_err(|e| Failure::Model(format!("water of the reference: {e}")))?,
-            ),
+                    .map_err(|e| Failure::Model(format!("water of the reference: {e}")))?;
+                let detail = config.detail_retention.then(|| {
+                    *self
+                        .detail
+                        .get_or_init(|| uwnr_model::style::detail_share(&self.image))
+                });
+                Some(uwnr_model::Water { detail, ..water })
+            }
         };
         Ok(ReferenceStyle { light_field, water })
     }
@@ -270,6 +277,7 @@ impl NativeReference {
             paper: OnceLock::new(),
             absolute: OnceLock::new(),
             water: OnceLock::new(),
+            detail: OnceLock::new(),
         })
     }
 

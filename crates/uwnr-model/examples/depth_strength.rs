@@ -1,7 +1,9 @@
 //! Self-reconstruction scores of the anchored variant's pipeline with the network's correction
 //! at zero (a fresh model), with the built-in depth prior: the Reinhard transfer alone, with
-//! light-field retention, with retention then the statistics matched again, and the full
-//! pipeline for several within-image depth strengths. Prints PSNR / SSIM means.
+//! light-field retention, with retention then the statistics matched again, with detail
+//! retention after light-field retention (alone and with the shipped depth stage), and the full
+//! pipeline without detail retention for several within-image depth strengths. Prints PSNR /
+//! SSIM means.
 //!
 //! `cargo run --release -p uwnr-model --example depth_strength -- PAIRS_DIR...`
 //! (each with `clean/` and `underwater/`, matched by file name).
@@ -13,13 +15,18 @@ use uwnr_baselines::reinhard::transfer_to_stats;
 use uwnr_core::Image;
 use uwnr_core::io::{DecodeLimits, load_rgb};
 use uwnr_core::lightfield::{LightFieldMap, light_field_for_with};
-use uwnr_model::style::{anchor, colour_transfer, estimate_water, finish_with};
+use uwnr_model::style::{
+    LOCAL_DEPTH_STRENGTH, anchor, colour_transfer, detail_share, estimate_water, finish_with,
+    retain_detail,
+};
 
 const STRENGTHS: [f32; 6] = [0.0, 0.05, 0.1, 0.25, 0.5, 1.0];
-const STEPS: [&str; 3] = [
+const STEPS: [&str; 5] = [
     "Reinhard transfer",
     "+ light-field retention",
     "+ statistics again",
+    "+ light-field and detail retention",
+    "+ light-field and detail retention + depth stage (shipped strength)",
 ];
 
 fn score(sum: &mut (f64, f64), out: &Image, target: &Image) {
@@ -49,10 +56,23 @@ fn main() {
             let transfer = colour_transfer(&clean, &water).unwrap();
             let a = anchor(&clean, &water, &reference_lf, |im| Ok(lf(im)?)).unwrap();
             let again = transfer_to_stats(&a, water.stats, ColourSpace::LAlphaBeta).unwrap();
-            for (sum, img) in steps.iter_mut().zip([&transfer, &a, &again]) {
+            let detail = retain_detail(a.clone(), detail_share(&under)).unwrap();
+            let raw = Image::filled(w, h, 6, 0.0);
+            let detail_depth = finish_with(
+                raw.clone(),
+                detail.clone(),
+                &depth,
+                &water,
+                None,
+                LOCAL_DEPTH_STRENGTH,
+            )
+            .unwrap();
+            for (sum, img) in steps
+                .iter_mut()
+                .zip([&transfer, &a, &again, &detail, &detail_depth])
+            {
                 score(sum, img, &under);
             }
-            let raw = Image::filled(w, h, 6, 0.0);
             for (sum, &s) in strengths.iter_mut().zip(&STRENGTHS) {
                 let out = finish_with(raw.clone(), a.clone(), &depth, &water, None, s).unwrap();
                 score(sum, &out, &under);

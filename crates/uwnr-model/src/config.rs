@@ -49,6 +49,12 @@ pub struct GeneratorConfig {
     /// [`crate::style`]); files without the field are read as `paper`.
     #[serde(default)]
     pub variant: Variant,
+    /// The anchored variant's detail retention ([`crate::style::retain_detail`]): the anchor
+    /// takes each channel's share of fine detail from the reference. Files without the field
+    /// (every model before it, the paper's) are read as `false`, and a `false` is not written,
+    /// so their configs stay byte for byte what they were.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub detail_retention: bool,
 }
 
 impl Default for GeneratorConfig {
@@ -59,6 +65,7 @@ impl Default for GeneratorConfig {
             base_width: PAPER_BASE_WIDTH,
             light_field: LightFieldMap::Paper,
             variant: Variant::Paper,
+            detail_retention: false,
         }
     }
 }
@@ -83,12 +90,20 @@ impl GeneratorConfig {
             base_width,
             light_field: LightFieldMap::Absolute,
             variant: Variant::Anchored,
+            detail_retention: false,
         }
     }
 
     /// Checks that every width is usable: non-zero channel counts and a base width that is a
     /// positive multiple of [`WIDTH_MULTIPLE`].
     pub fn validate(&self) -> Result<()> {
+        if self.detail_retention && self.variant != Variant::Anchored {
+            return Err(ModelError::InvalidConfig {
+                field: "detail_retention",
+                value: 1,
+                reason: "only the anchored variant has an anchor to retain detail in".into(),
+            });
+        }
         if self.variant == Variant::Anchored {
             let (cin, cout) = Variant::Anchored.channels();
             for (field, value, want) in [

@@ -10,6 +10,9 @@
 //! T      = Reinhard transfer of the clean image to the reference's lαβ statistics
 //! A      = T · 10^((LF_ref - LF_T) · R) per channel, clamped to RETENTION_GAIN      (anchor)
 //!          light-field retention: T takes the reference's coarse light (absolute maps)
+//! A      = blur(A) + k (A - blur(A)) per channel, k = D_ref / D_A, clamped to DETAIL_GAIN,
+//!          then rescaled to A's overall std: detail retention (config `detail_retention`),
+//!          D = mean local std / overall std
 //! x      = concat[clean, light field, A]                                 9 input planes
 //! g, o   = G(x)                                   6 output planes, tanh, zero at initialisation
 //! g', o' = Gaussian blur of g and o, sigma SMOOTH_SIGMA px    (a smooth local correction)
@@ -25,6 +28,18 @@
 //!   the ratio of the reference's and the transfer's blurred light. Untrained, it lifts the
 //!   transfer from 29.45 to 30.40 dB on `uieb-val` and from 29.75 to 30.62 dB on `lsui-test`
 //!   (self-reconstruction, `examples/depth_strength.rs`).
+//! - Detail retention (models whose config has `detail_retention`) gives each channel of the
+//!   anchor the reference's share of fine detail: `D_c`, the mean standard deviation over
+//!   SSIM's 7x7 windows divided by the channel's overall standard deviation, measured on the
+//!   reference and on the anchor at their own resolutions. The colour transfer matches each
+//!   lαβ channel's overall spread, but water (and the camera behind it) changes fine and coarse
+//!   contrast differently per channel: a red channel the water darkens keeps its noise and
+//!   grain while losing its large-scale contrast (`D` above the clean image's), forward
+//!   scattering softens detail (`D` below). The detail is what `DETAIL_SIGMA` separates from
+//!   the coarse image. A ratio of shares, not of spreads, so a reference of another scene
+//!   passes on its water's character rather than its content's amount of texture. Untrained,
+//!   after light-field retention, it lifts `uieb-val` from 30.40 dB / 0.939 to 30.64 / 0.946
+//!   and `lsui-test` from 30.62 / 0.941 to 30.95 / 0.952 (`examples/depth_strength.rs`).
 //! - The network starts exactly at the anchor (the last convolution is zero), and can
 //!   only move it by a smooth per-pixel gain and offset: it corrects where the reference's water
 //!   is brighter, darker, hazier or more tinted than a global transfer puts it (the light field
@@ -68,6 +83,7 @@ use uwnr_baselines::reinhard::{ChannelStats, reference_stats, transfer_to_stats}
 use uwnr_baselines::{BackgroundPick, ColourSpace, quadtree_background};
 use uwnr_core::Image;
 use uwnr_core::lightfield::light_field_with;
+use uwnr_core::resize::{fit_within, resize_bilinear};
 
 use crate::config::GeneratorConfig;
 use crate::error::{ModelError, Result};
@@ -119,6 +135,21 @@ pub const RETENTION_GAIN: (f32, f32) = (0.5, 2.0);
 /// Strength of the depth response within one image, relative to the response to the image's
 /// mean depth (1 = the same water at every pixel).
 pub const LOCAL_DEPTH_STRENGTH: f32 = 0.05;
+/// Longest side at which detail retention measures and separates detail, pixels: images are
+/// shrunk to it (never enlarged), so a reference and a photo of other sizes are compared at
+/// one scale. (A prototype of the step on a plain lαβ transfer, `uieb-val` at 1280x720: SSIM
+/// 0.9386 measured at 512 px, 0.9387 at full size, 0.9384 at 256 px, 0.9314 without the step.)
+pub const DETAIL_SIDE: usize = 512;
+/// Blur that splits an image into its coarse part and its detail (detail retention), pixels
+/// at the [`DETAIL_SIDE`] scale.
+pub const DETAIL_SIGMA: f64 = 5.0;
+/// Side of the square window of the local standard deviation detail retention compares
+/// (SSIM's window).
+pub const DETAIL_WINDOW: usize = 7;
+/// Smallest and largest per-channel detail gain of detail retention.
+pub const DETAIL_GAIN: (f32, f32) = (0.5, 2.0);
+/// A channel whose overall standard deviation is below this is flat: its detail is left alone.
+pub const DETAIL_FLAT_STD: f64 = 1e-3;
 /// Largest contrast gain towards depth 0.
 pub const MAX_GAIN: f32 = 2.0;
 /// Stopping size of the veiling-light quadtree search (fraction of the pixels).
@@ -133,10 +164,19 @@ pub struct Water {
     pub veil: [f32; 3],
     /// Attenuation per unit of normalised depth, RGB.
     pub beta: [f32; 3],
+    /// The reference's share of fine detail per channel ([`detail_share`]) when the model
+    /// retains it (`detail_retention` in its config); `None` leaves the anchor's detail alone.
+    #[serde(default)]
+    pub detail: Option<[f32; 3]>,
 }
 
-/// Estimates the water of the underwater image `reference` (module doc).
+/// Estimates the water of the underwater image `reference` (module doc), without its detail.
 pub fn estimate_water(reference: &Image) -> Result<Water> {
+    estimate_water_with(reference, false)
+}
+
+/// [`estimate_water`], with the reference's share of detail when `detail_retention` is set.
+pub fn estimate_water_with(reference: &Image, detail_retention: bool) -> Result<Water> {
     let baseline = |e: uwnr_baselines::BaselineError| ModelError::InvalidOptions(e.to_string());
     let stats = reference_stats(reference, ANCHOR_SPACE).map_err(baseline)?;
     let veil = quadtree_background(reference, VEIL_MIN_FRACTION, BackgroundPick::Mean)
@@ -157,7 +197,124 @@ pub fn estimate_water(reference: &Image) -> Result<Water> {
         stats,
         veil: veil.map(|v| v as f32),
         beta,
+        detail: detail_retention.then(|| detail_share(reference)),
     })
+}
+
+/// Per channel, the mean standard deviation over the [`DETAIL_WINDOW`]-pixel windows that fit
+/// in the image, divided by the channel's overall standard deviation: how much of its contrast
+/// is fine detail. Measured on the image shrunk to [`DETAIL_SIDE`] (never enlarged), so that
+/// images of different sizes are measured at comparable scales. `NaN` for a flat channel (below
+/// [`DETAIL_FLAT_STD`]) or an image smaller than a window; [`retain_detail`] leaves such a
+/// channel alone.
+#[must_use]
+pub fn detail_share(img: &Image) -> [f32; 3] {
+    match fit_within(img, DETAIL_SIDE) {
+        Ok(small) => share_as_is(&small),
+        Err(_) => [f32::NAN; 3],
+    }
+}
+
+/// [`detail_share`] of `img` at its own size.
+fn share_as_is(img: &Image) -> [f32; 3] {
+    let (w, h) = img.size();
+    let k = DETAIL_WINDOW;
+    std::array::from_fn(|c| {
+        if w < k || h < k {
+            return f32::NAN;
+        }
+        let p = img.plane(c);
+        // Summed-area tables of x and x^2, (w + 1) x (h + 1).
+        let stride = w + 1;
+        let mut s1 = vec![0.0f64; stride * (h + 1)];
+        let mut s2 = vec![0.0f64; stride * (h + 1)];
+        for y in 0..h {
+            let (mut r1, mut r2) = (0.0f64, 0.0f64);
+            for x in 0..w {
+                let v = f64::from(p[y * w + x]);
+                r1 += v;
+                r2 += v * v;
+                s1[(y + 1) * stride + x + 1] = s1[y * stride + x + 1] + r1;
+                s2[(y + 1) * stride + x + 1] = s2[y * stride + x + 1] + r2;
+            }
+        }
+        let n = (w * h) as f64;
+        let (t1, t2) = (s1[h * stride + w], s2[h * stride + w]);
+        let global = (t2 / n - (t1 / n).powi(2)).max(0.0).sqrt();
+        if global < DETAIL_FLAT_STD {
+            return f32::NAN;
+        }
+        let box_sum = |s: &[f64], x: usize, y: usize| {
+            s[(y + k) * stride + x + k] - s[y * stride + x + k] - s[(y + k) * stride + x]
+                + s[y * stride + x]
+        };
+        let kk = (k * k) as f64;
+        let mut local = 0.0f64;
+        for y in 0..=h - k {
+            for x in 0..=w - k {
+                let m = box_sum(&s1, x, y) / kk;
+                local += (box_sum(&s2, x, y) / kk - m * m).max(0.0).sqrt();
+            }
+        }
+        let windows = ((w - k + 1) * (h - k + 1)) as f64;
+        (local / windows / global) as f32
+    })
+}
+
+/// Detail retention: each channel of `anchor` split into its coarse part (a blur of
+/// [`DETAIL_SIGMA`] at the [`DETAIL_SIDE`] scale, brought back to the anchor's size) and its
+/// detail, the detail scaled by the ratio of the reference's share of detail (`reference`, from
+/// [`detail_share`]) to the anchor's, clamped to [`DETAIL_GAIN`], then the channel scaled about
+/// its mean back to its overall standard deviation: the colour transfer's statistics stay, only
+/// the split of contrast between coarse and fine changes. A channel flat in either image is
+/// left alone. `anchor` is taken and changed in place; a large photo holds one extra
+/// plane at a time.
+pub fn retain_detail(anchor: Image, reference: [f32; 3]) -> Result<Image> {
+    let (w, h) = anchor.size();
+    let small = fit_within(&anchor, DETAIL_SIDE)?;
+    let own = share_as_is(&small);
+    let (sw, sh) = small.size();
+    let mut out = anchor;
+    for c in 0..3 {
+        let gain = reference[c] / own[c];
+        if !gain.is_finite() {
+            continue;
+        }
+        let gain = gain.clamp(DETAIL_GAIN.0, DETAIL_GAIN.1);
+        let mut coarse = small.plane(c).to_vec();
+        blur_plane(&mut coarse, sw, sh, DETAIL_SIGMA);
+        let coarse = Image::from_planar(sw, sh, 1, coarse)?;
+        let coarse = resize_bilinear(&coarse, w, h)?;
+        let plane = out.plane_mut(c);
+        let (mean, spread) = mean_std(plane);
+        for (v, &lo) in plane.iter_mut().zip(coarse.plane(0)) {
+            *v = lo + gain * (*v - lo);
+        }
+        // The overall spread stays the transfer's: only its split between coarse and fine
+        // changes (the shares are ratios, so this keeps the reference's).
+        let (new_mean, new_spread) = mean_std(plane);
+        let scale = if new_spread > 0.0 {
+            spread / new_spread
+        } else {
+            1.0
+        };
+        for v in plane.iter_mut() {
+            *v = ((f64::from(*v) - new_mean) * scale + mean).clamp(0.0, 1.0) as f32;
+        }
+    }
+    Ok(out)
+}
+
+/// Mean and standard deviation of a plane.
+fn mean_std(p: &[f32]) -> (f64, f64) {
+    let n = p.len().max(1) as f64;
+    let mean = p.iter().map(|&v| f64::from(v)).sum::<f64>() / n;
+    let var = p
+        .iter()
+        .map(|&v| (f64::from(v) - mean).powi(2))
+        .sum::<f64>()
+        / n;
+    (mean, var.sqrt())
 }
 
 /// What rendering needs of one reference, computed once and reused for any clean image.
@@ -176,7 +333,7 @@ impl ReferenceStyle {
         let light_field = light_field_with(reference, config.light_field)?;
         let water = match config.variant {
             Variant::Paper => None,
-            Variant::Anchored => Some(estimate_water(reference)?),
+            Variant::Anchored => Some(estimate_water_with(reference, config.detail_retention)?),
         };
         Ok(Self { light_field, water })
     }
@@ -239,7 +396,8 @@ pub fn retain_light_field(
 }
 
 /// The anchor of `clean`: the colour transfer to the reference's statistics, with the
-/// reference's light field retained ([`retain_light_field`]). `reference_lf` is the reference's
+/// reference's light field retained ([`retain_light_field`]) and, when the water carries the
+/// reference's share of detail, its detail too ([`retain_detail`]). `reference_lf` is the reference's
 /// absolute light field at the clean image's size; `light_field` computes a map of the same
 /// geometry from an image of that size.
 pub fn anchor(
@@ -250,7 +408,11 @@ pub fn anchor(
 ) -> Result<Image> {
     let transfer = colour_transfer(clean, water)?;
     let transfer_lf = light_field(&transfer)?;
-    retain_light_field(transfer, &transfer_lf, reference_lf)
+    let retained = retain_light_field(transfer, &transfer_lf, reference_lf)?;
+    Ok(match water.detail {
+        Some(detail) => retain_detail(retained, detail)?,
+        None => retained,
+    })
 }
 
 /// Normalised Gaussian kernel `exp(-x^2 / (2 sigma^2))`, `x = -radius..=radius`.

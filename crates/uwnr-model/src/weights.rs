@@ -604,6 +604,7 @@ fn infer_config(tensors: &TensorMap) -> Result<GeneratorConfig> {
         base_width,
         light_field: LightFieldMap::Paper,
         variant: crate::style::Variant::Paper,
+        detail_retention: false,
     };
     config.validate()?;
     Ok(config)

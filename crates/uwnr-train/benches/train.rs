@@ -96,6 +96,7 @@ fn prepare(c: &mut Criterion) {
             },
             light_field: uwnr_core::lightfield::LightFieldMap::Paper,
             variant: uwnr_model::Variant::Paper,
+            detail_retention: false,
         };
         group.throughput(Throughput::Elements(b as u64));
         group.bench_function(format!("{b}x{s}"), |bencher| {

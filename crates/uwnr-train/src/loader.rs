@@ -61,6 +61,8 @@ pub struct BatchSpec {
     pub light_field: LightFieldMap,
     /// What the network's planes mean.
     pub variant: Variant,
+    /// The anchored variant's detail retention (the model config's `detail_retention`).
+    pub detail_retention: bool,
 }
 
 impl BatchSpec {
@@ -97,9 +99,13 @@ impl BatchSpec {
                     self.crop,
                     &self.augment,
                 );
-                make_sample(pair, &plan, self.crop, self.variant, |im| {
-                    Ok(uwnr_core::lightfield::light_field_raw_with(im, map)?)
-                })
+                make_sample(
+                    pair,
+                    &plan,
+                    self.crop,
+                    (self.variant, self.detail_retention),
+                    |im| Ok(uwnr_core::lightfield::light_field_raw_with(im, map)?),
+                )
             })
             .collect();
         let n = self.crop * self.crop;

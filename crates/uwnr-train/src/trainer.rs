@@ -12,7 +12,7 @@ use std::sync::atomic::AtomicBool;
 use burn::optim::{AdamWConfig, GradientsParams, ModuleOptimizer};
 use burn::tensor::{Device, Tensor, TensorData};
 use uwnr_core::lightfield;
-use uwnr_model::style::{estimate_water, finish_tensor};
+use uwnr_model::style::{estimate_water_with, finish_tensor};
 use uwnr_model::weights::SOURCE_METADATA_KEY;
 use uwnr_model::{
     Backend, Generator, Network, ReferenceStyle, RenderOptions, Variant, WeightsDtype,
@@ -141,6 +141,7 @@ pub fn train(
         augment: cfg.augment,
         light_field: cfg.model.light_field,
         variant: cfg.model.variant,
+        detail_retention: cfg.model.detail_retention,
     });
     let task = UwnrTask {
         cfg,
@@ -190,7 +191,10 @@ fn reference_style(cfg: &TrainConfig, v: &ValPair) -> Result<ReferenceStyle> {
     )?;
     let water = match cfg.model.variant {
         Variant::Paper => None,
-        Variant::Anchored => Some(estimate_water(&v.underwater)?),
+        Variant::Anchored => Some(estimate_water_with(
+            &v.underwater,
+            cfg.model.detail_retention,
+        )?),
     };
     Ok(ReferenceStyle { light_field, water })
 }

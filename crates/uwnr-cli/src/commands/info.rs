@@ -56,6 +56,11 @@ pub fn run(a: &InfoArgs) -> Result<ExitCode> {
                 "anchored (clean, light field, Reinhard anchor in; smooth gain and offset out; depth through the image-formation stage)",
         }
     );
+    if config.detail_retention {
+        println!(
+            "anchor:      light-field and detail retention (the reference's coarse light and share of fine detail)"
+        );
+    }
     let (pw, ph) = (w.div_ceil(16) * 16, h.div_ceil(16) * 16);
     println!(
         "compute:     {:.2} GMac at {w}x{h} (padded to {pw}x{ph})",

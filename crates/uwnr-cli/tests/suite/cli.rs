@@ -226,15 +226,17 @@ fn info_reports_the_bundled_model_and_the_variant() {
     let o = uwnr(&["info"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let text = String::from_utf8_lossy(&o.stdout);
-    // The bundled v3 model: the anchored variant at base width 32.
+    // The bundled v4 model: the anchored variant at base width 32, with detail retention.
     assert!(text.contains("2896178"), "{text}");
     assert!(text.contains("variant:     anchored"), "{text}");
+    assert!(text.contains("detail retention"), "{text}");
     // A file of the paper's generator (the parity fixture, width 8) is the paper's variant.
     let w = weights();
     let o = uwnr(&["info", "--weights", s(&w)]);
     assert!(o.status.success(), "{}", stderr(&o));
     let text = String::from_utf8_lossy(&o.stdout);
     assert!(text.contains("variant:     paper"), "{text}");
+    assert!(!text.contains("detail retention"), "{text}");
 }
 
 #[test]

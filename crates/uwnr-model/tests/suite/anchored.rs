@@ -7,9 +7,10 @@ use uwnr_core::Image;
 use uwnr_core::lightfield::{LightFieldMap, light_field_for_with};
 use uwnr_core::resize::resize_bilinear;
 use uwnr_model::style::{
-    REFERENCE_DEPTH, anchor, colour_transfer, estimate_water, finish, finish_tensor,
+    REFERENCE_DEPTH, anchor, colour_transfer, detail_share, estimate_water, finish, finish_tensor,
+    retain_detail,
 };
-use uwnr_model::{Backend, Device, GeneratorConfig, Network, ReferenceStyle, RenderOptions};
+use uwnr_model::{Backend, Device, GeneratorConfig, Network, ReferenceStyle, RenderOptions, Water};
 
 use crate::common::{max_abs, wave_image as image};
 
@@ -212,4 +213,152 @@ fn farther_is_hazier_and_closer_to_the_veiling_light_whatever_the_weights() {
         };
         assert!(dist(&pair[1]) <= dist(&pair[0]) + 1e-6);
     }
+}
+
+/// A 3-channel image: a smooth ramp plus a checkerboard of amplitude `fine[c]` per channel.
+fn ramp_and_grain(w: usize, h: usize, fine: [f32; 3]) -> Image {
+    let data = (0..3)
+        .flat_map(|c| {
+            (0..w * h).map(move |i| {
+                let (x, y) = (i % w, i / w);
+                let ramp = 0.2 + 0.6 * (x as f32 / w as f32);
+                let checker = if (x + y) % 2 == 0 { 0.5 } else { -0.5 };
+                ramp + fine[c] * checker + 0.05 * (y as f32 / h as f32)
+            })
+        })
+        .collect();
+    Image::from_planar(w, h, 3, data).unwrap()
+}
+
+#[test]
+fn the_share_of_detail_tells_grain_from_large_scale_contrast() {
+    let share = detail_share(&ramp_and_grain(64, 48, [0.0, 0.05, 0.2]));
+    // A smooth ramp: windows see little of its spread; grain raises the share.
+    assert!(share[0] < 0.15, "{share:?}");
+    assert!(share[0] < share[1] && share[1] < share[2], "{share:?}");
+    // A flat channel and an image smaller than a window have no share.
+    let flat = Image::filled(16, 16, 3, 0.4);
+    assert!(detail_share(&flat).iter().all(|v| v.is_nan()));
+    assert!(
+        detail_share(&ramp_and_grain(5, 5, [0.1; 3]))
+            .iter()
+            .all(|v| v.is_nan())
+    );
+}
+
+fn std_of(p: &[f32]) -> f64 {
+    let n = p.len() as f64;
+    let m = p.iter().map(|&v| f64::from(v)).sum::<f64>() / n;
+    (p.iter().map(|&v| (f64::from(v) - m).powi(2)).sum::<f64>() / n).sqrt()
+}
+
+#[test]
+fn detail_retention_moves_each_channel_towards_the_reference_share() {
+    let anchor_img = ramp_and_grain(64, 48, [0.05, 0.05, 0.05]);
+    let before = detail_share(&anchor_img);
+    let reference = ramp_and_grain(80, 60, [0.15, 0.05, 0.01]);
+    let want = detail_share(&reference);
+    let after = detail_share(&retain_detail(anchor_img.clone(), want).unwrap());
+    // Red takes more grain, blue less, green about as much as it had.
+    assert!(after[0] > before[0] + 0.05, "{before:?} -> {after:?}");
+    assert!(after[2] < before[2] - 0.03, "{before:?} -> {after:?}");
+    assert!(
+        (after[1] - before[1]).abs() < 0.02,
+        "{before:?} -> {after:?}"
+    );
+    for c in [0, 2] {
+        assert!(
+            (after[c] - want[c]).abs() < (before[c] - want[c]).abs() * 0.6,
+            "channel {c}: {before:?} -> {after:?}, reference {want:?}"
+        );
+    }
+    // The colour statistics are kept: means move by less than a level, spreads stay.
+    let retained = retain_detail(anchor_img.clone(), want).unwrap();
+    for c in 0..3 {
+        let (s0, s1) = (std_of(anchor_img.plane(c)), std_of(retained.plane(c)));
+        assert!((s0 - s1).abs() < 1e-3, "channel {c}: spread {s0} -> {s1}");
+    }
+    let (m0, m1) = (mean_rgb(&anchor_img), mean_rgb(&retained));
+    assert!(
+        m0.iter().zip(m1).all(|(a, b)| (a - b).abs() < 2e-3),
+        "{m0:?} {m1:?}"
+    );
+    // A share that cannot be read leaves the channel as it is.
+    let img = ramp_and_grain(32, 32, [0.05; 3]);
+    assert!(max_abs(&retain_detail(img.clone(), [f32::NAN; 3]).unwrap(), &img) < 1e-7);
+}
+
+#[test]
+fn detail_retention_is_a_config_choice_that_old_files_do_not_make() {
+    let plain = GeneratorConfig::anchored(8);
+    let json = serde_json::to_string(&plain).unwrap();
+    assert!(!json.contains("detail"), "{json}");
+    let detail = GeneratorConfig {
+        detail_retention: true,
+        ..plain
+    };
+    let json = serde_json::to_string(&detail).unwrap();
+    assert_eq!(
+        serde_json::from_str::<GeneratorConfig>(&json).unwrap(),
+        detail
+    );
+    detail.validate().unwrap();
+    let paper = GeneratorConfig {
+        detail_retention: true,
+        ..GeneratorConfig::with_base_width(8)
+    };
+    let err = paper.validate().unwrap_err();
+    assert!(err.to_string().contains("detail_retention"), "{err}");
+    // The style carries the reference's share only for a model that retains it.
+    let reference = reference(64, 48);
+    let without = ReferenceStyle::new(&reference, &plain).unwrap();
+    assert!(without.water.unwrap().detail.is_none());
+    let with = ReferenceStyle::new(&reference, &detail).unwrap();
+    assert_eq!(with.water.unwrap().detail, Some(detail_share(&reference)));
+}
+
+#[test]
+fn a_fresh_detail_retaining_model_renders_its_anchor() {
+    let device = Device::flex();
+    device.seed(3);
+    let config = GeneratorConfig {
+        detail_retention: true,
+        ..GeneratorConfig::anchored(8)
+    };
+    let g = config.init(&device).unwrap();
+    let net = Network::from_generator(&g, &config, &Backend::Engine).unwrap();
+    let reference = ramp_and_grain(64, 48, [0.2, 0.02, 0.02]);
+    let style = ReferenceStyle::new(&reference, &config).unwrap();
+    let clean = image(48, 32, 3, 1.0, 0.5);
+    let absolute = RenderOptions {
+        relative_depth: false,
+        ..Default::default()
+    };
+    let out = net
+        .render(
+            &clean,
+            &constant(48, 32, REFERENCE_DEPTH),
+            &style,
+            &absolute,
+        )
+        .unwrap();
+    let lf = resize_bilinear(&style.light_field, 48, 32).unwrap();
+    let lf_of = |im: &Image| Ok(light_field_for_with(im, 48, 32, LightFieldMap::Absolute)?);
+    let water = style.water.unwrap();
+    let want = anchor(&clean, &water, &lf, lf_of).unwrap();
+    assert!(max_abs(&out, &want) < 1e-5);
+    let plain = anchor(
+        &clean,
+        &Water {
+            detail: None,
+            ..water
+        },
+        &lf,
+        lf_of,
+    )
+    .unwrap();
+    assert!(
+        max_abs(&want, &plain) > 1e-3,
+        "detail retention changed nothing"
+    );
 }
