@@ -13,6 +13,8 @@
 #   width-16      base width 16 instead of 32
 #   width-64      base width 64 (the paper's)
 #   crop-256      256x256 crops instead of 128x128 (4x the pixels a step)
+#   seed-44       the recipe with seed 44 instead of 43 (crops, augmentation, init): with
+#   seed-45       seed-45 and the recipe's own run, the spread one training run can move
 # Needs the release binary with the tch feature, as tools/train_default_model.sh says.
 # Results: ABLATION_OUT (default ../uwnr-runs/ablation)/<variant>/{run,scores.txt}.
 set -euo pipefail
@@ -27,9 +29,11 @@ declare -A CHANGE=(
   [width-16]='{"model": {"base_width": 16}}'
   [width-64]='{"model": {"base_width": 64}}'
   [crop-256]='{"crop": 256}'
+  [seed-44]='{"seed": 44}'
+  [seed-45]='{"seed": 45}'
 )
 VARIANTS=("$@")
-[ ${#VARIANTS[@]} -gt 0 ] || VARIANTS=(recipe untrained no-detail ssim-2 l1-only width-16 width-64 crop-256)
+[ ${#VARIANTS[@]} -gt 0 ] || VARIANTS=(recipe untrained no-detail ssim-2 l1-only width-16 width-64 crop-256 seed-44 seed-45)
 for v in "${VARIANTS[@]}"; do
   [ -n "${CHANGE[$v]:-}" ] || { echo "error: unknown variant $v" >&2; exit 2; }
   dir="$OUT/$v"

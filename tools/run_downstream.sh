@@ -4,7 +4,8 @@
 # built-in prior) with the references of
 # ../shared/data/references (4 per clean image, 256x256), Shallow-UWnet trained on each and on
 # the real euvp-dark pairs with the same budget (6,000 samples: 1,500 steps of 4 x 128²),
-# scored on uieb-val and lsui. The bundled model renders the uwnr set.
+# scored on uieb-val, lsui and lsui-test (the 27 LSUI pairs held out from the bundled model's
+# training by tools/lsui_split.sh, made in SPLITS). The bundled model renders the uwnr set.
 #
 # Run from the repository root; run it again to continue after a stop (every stage resumes).
 # Needs the release binary with the tch feature (about 2.5-3 hours on a 2-core CPU):
@@ -21,6 +22,8 @@ METHODS=${METHODS:-uwnr,uwgan,jerlov,uisa,seathru,reinhard}
 # SEED=1 and SEED=2, each in its own OUT).
 SEED=${SEED:-0}
 REAL=${REAL-$DATA/paired/euvp-dark}
+SPLITS=${SPLITS:-../uwnr-splits}
+[ -d "$SPLITS/lsui-test" ] || bash tools/lsui_split.sh "$SPLITS" >/dev/null
 export LIBTORCH_USE_PYTORCH=1
 if [ "$DEVICE" = tch ] && [ -z "${LIBTORCH:-}" ]; then
   TORCH_LIB=$(python3 -c 'import os, torch; print(os.path.join(os.path.dirname(torch.__file__), "lib"))')
@@ -30,7 +33,7 @@ mkdir -p "$(dirname "$OUT")"
 exec "$BIN" experiment downstream \
   --clean "$DATA/inair" "$DATA"/rgbd/*/rgb \
   --references "$DATA/references" \
-  --test "$DATA/paired/uieb-val" "$DATA/paired/lsui" \
+  --test "$DATA/paired/uieb-val" "$DATA/paired/lsui" "$SPLITS/lsui-test" \
   ${REAL:+--real "$REAL"} \
   --methods "$METHODS" --per-image 4 --size 256x256 \
   --budget 6000 --seed "$SEED" --device "$DEVICE" --out "$OUT"
