@@ -182,15 +182,8 @@ pub fn estimate_water_with(reference: &Image, detail_retention: bool) -> Result<
     let veil = quadtree_background(reference, VEIL_MIN_FRACTION, BackgroundPick::Mean)
         .map_err(baseline)?;
     let beta = std::array::from_fn(|c| {
-        let p = reference.plane(c);
-        let n = p.len().max(1) as f64;
-        let mean = p.iter().map(|&v| f64::from(v)).sum::<f64>() / n;
-        let var = p
-            .iter()
-            .map(|&v| (f64::from(v) - mean).powi(2))
-            .sum::<f64>()
-            / n;
-        let t = (var.sqrt() / AIR_CONTRAST).clamp(MIN_TRANSMISSION, 1.0);
+        let (_, sd) = mean_std(reference.plane(c));
+        let t = (sd / AIR_CONTRAST).clamp(MIN_TRANSMISSION, 1.0);
         (-t.ln() / f64::from(REFERENCE_DEPTH)) as f32
     });
     Ok(Water {
