@@ -1,10 +1,15 @@
 #!/usr/bin/env python3
 """Mean and spread of downstream rows over several runs of `uwnr experiment downstream`.
 
-Usage: python3 tools/downstream_seeds.py RUN_DIR... (each holding a results.json; typically the
-same command with --seed 0, 1, 2). For every row name found in any run it prints, per test set
-and metric, the mean over the runs that have the row, and the spread as the sample standard
-deviation and the min-max range, with the number of runs behind it. Standard library only.
+Usage: python3 tools/downstream_seeds.py [--versus ROW] RUN_DIR... (each holding a results.json;
+typically the same command with --seed 0, 1, 2). For every row name found in any run it prints,
+per test set and metric, the mean over the runs that have the row, and the spread as the sample
+standard deviation and the min-max range, with the number of runs behind it.
+
+With --versus ROW it then prints, for every other row, its PSNR and SSIM minus ROW's, paired by
+the experiment's seed: runs with the same seed draw the same references for each clean image and
+start the enhancer from the same initial weights and crops, so the per-seed difference is freer
+of noise than the difference of the means. Standard library only.
 """
 import json
 import statistics
@@ -16,11 +21,18 @@ DIGITS = {"psnr": 2, "ssim": 3, "uiqm": 3, "uciqe": 3}
 
 
 def main(argv):
-    if len(argv) < 2:
+    args = argv[1:]
+    versus = None
+    if args[:1] == ["--versus"]:
+        if len(args) < 2:
+            print("error: --versus needs a row name", file=sys.stderr)
+            return 2
+        versus, args = args[1], args[2:]
+    if not args:
         print(__doc__.strip().splitlines()[2], file=sys.stderr)
         return 2
     runs = []
-    for d in argv[1:]:
+    for d in args:
         path = Path(d) / "results.json"
         try:
             runs.append((d, json.loads(path.read_text())))
@@ -54,6 +66,50 @@ def main(argv):
                     cells.append(
                         f"{statistics.mean(v):.{k}f} ± {sd:.{k}f} ({min(v):.{k}f}-{max(v):.{k}f})"
                     )
+        print("| " + " | ".join(cells) + " |")
+    if versus is not None:
+        return print_paired(runs, tests, names, versus)
+    return 0
+
+
+def spread(v, k):
+    """`mean ± sd (min-max)` of a list, or the value alone for one."""
+    if len(v) == 1:
+        return f"{v[0]:+.{k}f}"
+    sd = statistics.stdev(v)
+    return f"{statistics.mean(v):+.{k}f} ± {sd:.{k}f} ({min(v):+.{k}f} to {max(v):+.{k}f})"
+
+
+def print_paired(runs, tests, names, versus):
+    """Per-seed differences of every row from `versus`, seeds paired by `settings.seed`."""
+    by_seed = {}
+    for _, r in runs:
+        for row in r["rows"]:
+            by_seed.setdefault(row["name"], {})[r["settings"]["seed"]] = row
+    if versus not in by_seed:
+        print(f"error: no row named {versus}", file=sys.stderr)
+        return 1
+    base = by_seed[versus]
+    header = ["row", "seeds"] + [f"{t} {m}" for t in tests for m in ("psnr", "ssim")]
+    print()
+    print(f"Paired by seed: row minus {versus}")
+    print()
+    print("| " + " | ".join(header) + " |")
+    print("|" + "---|" * len(header))
+    for name in names:
+        if name == versus:
+            continue
+        seeds = sorted(set(by_seed[name]) & set(base))
+        if not seeds:
+            continue
+        cells = [name, ",".join(str(s) for s in seeds)]
+        for i, _ in enumerate(tests):
+            for m in ("psnr", "ssim"):
+                v = [
+                    by_seed[name][s]["scores"][i][m] - base[s]["scores"][i][m]
+                    for s in seeds
+                ]
+                cells.append(spread(v, DIGITS[m]))
         print("| " + " | ".join(cells) + " |")
     return 0
 
