@@ -57,27 +57,23 @@ def main(argv):
         cells = [name, str(len(rows))]
         for i, _ in enumerate(tests):
             for m in METRICS:
-                v = [row["scores"][i][m] for row in rows]
-                k = DIGITS[m]
-                if len(v) == 1:
-                    cells.append(f"{v[0]:.{k}f}")
-                else:
-                    sd = statistics.stdev(v)
-                    cells.append(
-                        f"{statistics.mean(v):.{k}f} ± {sd:.{k}f} ({min(v):.{k}f}-{max(v):.{k}f})"
-                    )
+                cells.append(spread([row["scores"][i][m] for row in rows], DIGITS[m]))
         print("| " + " | ".join(cells) + " |")
     if versus is not None:
         return print_paired(runs, tests, names, versus)
     return 0
 
 
-def spread(v, k):
-    """`mean ± sd (min-max)` of a list, or the value alone for one."""
+def spread(v, k, signed=False):
+    """`mean ± sd (min-max)` of a list, or the value alone for one; `signed` shows the signs of
+    differences (and writes the range `min to max`)."""
+    f = "+" if signed else ""
     if len(v) == 1:
-        return f"{v[0]:+.{k}f}"
+        return f"{v[0]:{f}.{k}f}"
     sd = statistics.stdev(v)
-    return f"{statistics.mean(v):+.{k}f} ± {sd:.{k}f} ({min(v):+.{k}f} to {max(v):+.{k}f})"
+    lo, hi = f"{min(v):{f}.{k}f}", f"{max(v):{f}.{k}f}"
+    span = f"{lo} to {hi}" if signed else f"{lo}-{hi}"
+    return f"{statistics.mean(v):{f}.{k}f} ± {sd:.{k}f} ({span})"
 
 
 def print_paired(runs, tests, names, versus):
@@ -109,7 +105,7 @@ def print_paired(runs, tests, names, versus):
                     by_seed[name][s]["scores"][i][m] - base[s]["scores"][i][m]
                     for s in seeds
                 ]
-                cells.append(spread(v, DIGITS[m]))
+                cells.append(spread(v, DIGITS[m], signed=True))
         print("| " + " | ".join(cells) + " |")
     return 0
 
