@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # The full downstream experiment behind docs/RESULTS.md: one synthetic training set per method
-# from the clean images of ../shared/data (inair + the rgb folders of rgbd; depth from the
-# built-in prior) with the references of
+# from the clean images of ../shared/data (inair + the rgb folders of rgbd; depth: the rgbd
+# sets' measured maps beside them, the built-in prior elsewhere, as `uwnr dataset` reads depth:
+# trusted fully, a scene scale drawn per pair; runs before the depth policy used the prior
+# everywhere at the render trust) with the references of
 # ../shared/data/references (4 per clean image, 256x256), Shallow-UWnet trained on each and on
 # the real euvp-dark pairs with the same budget (6,000 samples: 1,500 steps of 4 x 128²),
 # scored on uieb-val, lsui and lsui-test (the 27 LSUI pairs held out from the bundled model's

@@ -30,6 +30,7 @@ use uwnr_baselines::{
 };
 use uwnr_core::Image;
 use uwnr_core::lightfield::{LightFieldMap, light_field_with};
+use uwnr_dataset::DepthPolicy;
 use uwnr_dataset::renderer::{ReferenceInput, Renderer as DatasetRenderer};
 use uwnr_model::{GeneratorConfig, ReferenceStyle, RenderOptions};
 
@@ -333,11 +334,37 @@ enum Kind {
     },
 }
 
+/// What a depth map passed from Python stands for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum DepthUnitArg {
+    /// uwnr's absolute [0, 1]: 0 at the camera, 1 far away (the default).
+    Absolute,
+    /// Relative: only differences within the image act, over the renderer's scene scale.
+    Relative,
+    /// Metres (holes as 0 or NaN are filled from their neighbours).
+    Metres,
+}
+
+impl DepthUnitArg {
+    fn parse(name: &str) -> Result<Self, Failure> {
+        match name {
+            "absolute" => Ok(Self::Absolute),
+            "relative" => Ok(Self::Relative),
+            "m" => Ok(Self::Metres),
+            other => Err(Failure::Value(format!(
+                "depth_unit {other:?} is not one of absolute, relative, m, mm"
+            ))),
+        }
+    }
+}
+
 /// A loaded renderer: the network (weights loaded once) or a baseline with its parameters.
 #[pyclass(frozen, module = "uwnr._uwnr")]
 struct NativeRenderer {
     kind: Kind,
     seed: u64,
+    /// The network's scene scale and trust in the prior (`scene_scale`, `prior_trust`).
+    policy: DepthPolicy,
     /// Where the weights came from, or the baseline's parameters as JSON.
     source: String,
 }
@@ -354,6 +381,7 @@ struct Job<'a> {
     clean: PixelView<'a>,
     reference: Option<&'a NativeReference>,
     depth: Option<PixelView<'a>>,
+    depth_unit: DepthUnitArg,
     seed: u64,
 }
 
@@ -369,23 +397,17 @@ impl NativeRenderer {
     fn render_job(&self, job: &Job<'_>) -> Result<Image, Failure> {
         let clean = rgb_image(&job.clean)?;
         let depth = match &job.depth {
-            Some(d) => {
-                if d.channels != 1 {
-                    return Err(Failure::Value(format!(
-                        "depth must have 1 channel, got {}",
-                        d.channels
-                    )));
-                }
-                let map = d.image()?;
-                if map.size() == clean.size() {
-                    map
-                } else {
-                    uwnr_core::resize::resize_bilinear(&map, clean.width(), clean.height())
-                        .map_err(value)?
-                }
-            }
-            None => uwnr_depth::builtin_depth(&clean).map_err(model)?,
+            Some(d) => given_depth(d, job.depth_unit, clean.size())?,
+            None => uwnr_depth::Depth {
+                map: uwnr_depth::builtin_depth(&clean).map_err(model)?,
+                notes: Vec::new(),
+                relative: true,
+                metric_max: None,
+                prior: true,
+            },
         };
+        let response = self.policy.response(&depth, job.seed);
+        let depth = depth.map;
         match &self.kind {
             Kind::Network { renderer, config } => {
                 let reference = job.reference.ok_or_else(|| {
@@ -398,14 +420,14 @@ impl NativeRenderer {
                 };
                 let worker = renderer.worker().map_err(model)?;
                 let (out, _params) = worker
-                    .render(&clean, &depth, job.depth.is_none(), Some(input), job.seed)
+                    .render(&clean, &depth, &response, Some(input), job.seed)
                     .map_err(Failure::Model)?;
                 Ok(out)
             }
             Kind::Gan { renderer } => {
                 let worker = renderer.worker().map_err(model)?;
                 let (out, _params) = worker
-                    .render(&clean, &depth, job.depth.is_none(), None, job.seed)
+                    .render(&clean, &depth, &response, None, job.seed)
                     .map_err(Failure::Model)?;
                 Ok(out)
             }
@@ -434,6 +456,88 @@ impl NativeRenderer {
             }
         }
     }
+}
+
+/// A depth map passed from Python, at the clean image's size, as `unit` says to read it: a
+/// metric map has its holes filled and keeps its metres, a relative or absolute one its values.
+fn given_depth(
+    d: &PixelView<'_>,
+    unit: DepthUnitArg,
+    size: (usize, usize),
+) -> Result<uwnr_depth::Depth, Failure> {
+    if d.channels != 1 {
+        return Err(Failure::Value(format!(
+            "depth must have 1 channel, got {}",
+            d.channels
+        )));
+    }
+    let mut map = d.image()?;
+    let mut metric_max = None;
+    if unit == DepthUnitArg::Metres {
+        let (w, h) = map.size();
+        if !uwnr_depth::fill_holes(map.plane_mut(0), w, h) {
+            return Err(Failure::Value(
+                "depth holds no measured value (every value is 0 or not finite)".into(),
+            ));
+        }
+        let far = map.plane(0).iter().fold(0.0f32, |m, &v| m.max(v));
+        for v in map.plane_mut(0) {
+            *v /= far;
+        }
+        metric_max = Some(far);
+    }
+    if map.size() != size {
+        map = uwnr_core::resize::resize_bilinear(&map, size.0, size.1).map_err(value)?;
+    }
+    Ok(uwnr_depth::Depth {
+        map,
+        notes: Vec::new(),
+        relative: unit == DepthUnitArg::Relative,
+        metric_max,
+        prior: false,
+    })
+}
+
+/// The network's depth options (`scene_scale`: metres, or `[min, max]` drawn per image;
+/// `prior_trust`), over `uwnr render`'s defaults; any other key is an error.
+fn network_policy(options: &Value) -> Result<DepthPolicy, Failure> {
+    let s = uwnr_model::style::DEFAULT_SCENE_SCALE_M;
+    let mut policy = DepthPolicy {
+        beside: false,
+        unit: uwnr_depth::DepthUnit::Relative,
+        scene_scale_m: (s, s),
+        prior_trust: uwnr_model::style::PRIOR_TRUST,
+    };
+    let Value::Object(m) = options else {
+        return Err(Failure::Value("method options must be a mapping".into()));
+    };
+    let number = |key: &str, v: &Value| {
+        v.as_f64()
+            .map(|x| x as f32)
+            .ok_or_else(|| Failure::Value(format!("{key} must be a number, got {v}")))
+    };
+    for (key, v) in m {
+        match key.as_str() {
+            "scene_scale" => {
+                policy.scene_scale_m = match v {
+                    Value::Array(a) if a.len() == 2 => (number(key, &a[0])?, number(key, &a[1])?),
+                    other => {
+                        let x = number(key, other)?;
+                        (x, x)
+                    }
+                };
+            }
+            "prior_trust" => policy.prior_trust = number(key, v)?,
+            other => {
+                return Err(Failure::Value(format!(
+                    "option {other:?} does not apply to method uwnr (it takes weights, device, \
+                     the tiling options, scene_scale and prior_trust)"
+                )));
+            }
+        }
+    }
+    policy.validate().map_err(value)?;
+    Ok(policy)
 }
 
 /// The baseline `name` with the user's options (a JSON object), checked so that an option the
@@ -546,14 +650,7 @@ impl NativeRenderer {
         let options: Value = serde_json::from_str(options_json)
             .map_err(|e| PyValueError::new_err(format!("method options: {e}")))?;
         if method == "uwnr" {
-            if let Value::Object(m) = &options
-                && let Some(key) = m.keys().next()
-            {
-                return Err(PyValueError::new_err(format!(
-                    "option {key:?} does not apply to method uwnr (it takes weights, device and \
-                     the tiling options)"
-                )));
-            }
+            let policy = network_policy(&options)?;
             if let Some(path) = &weights
                 && !path.exists()
             {
@@ -574,6 +671,7 @@ impl NativeRenderer {
             return Ok(Self {
                 kind: Kind::Network { renderer, config },
                 seed,
+                policy,
                 source,
             });
         }
@@ -597,6 +695,7 @@ impl NativeRenderer {
             return Ok(Self {
                 kind: Kind::Gan { renderer },
                 seed,
+                policy: DepthPolicy::default(),
                 source,
             });
         }
@@ -613,6 +712,7 @@ impl NativeRenderer {
                 without_reference,
             },
             seed,
+            policy: DepthPolicy::default(),
             source,
         })
     }
@@ -645,13 +745,15 @@ impl NativeRenderer {
     }
 
     /// Renders one image; returns its interleaved bytes in the clean image's dtype.
-    #[pyo3(signature = (clean, reference, depth, seed, index))]
+    #[pyo3(signature = (clean, reference, depth, depth_unit, seed, index))]
+    #[allow(clippy::too_many_arguments)]
     fn render<'py>(
         &self,
         py: Python<'py>,
         clean: Pixels<'py>,
         reference: Option<Bound<'py, NativeReference>>,
         depth: Option<Pixels<'py>>,
+        depth_unit: &str,
         seed: Option<u64>,
         index: usize,
     ) -> PyResult<Bound<'py, PyBytes>> {
@@ -659,6 +761,7 @@ impl NativeRenderer {
             clean: clean.view()?,
             reference: reference.as_ref().map(Bound::get),
             depth: depth.as_ref().map(Pixels::view).transpose()?,
+            depth_unit: DepthUnitArg::parse(depth_unit)?,
             seed: uwnr_baselines::item_seed(seed.unwrap_or(self.seed), index),
         };
         let dtype = job.clean.dtype;
@@ -667,14 +770,16 @@ impl NativeRenderer {
     }
 
     /// Renders many images in parallel; item `i` uses seed `item_seed(seed, i)`.
-    #[pyo3(signature = (items, seed))]
+    #[pyo3(signature = (items, depth_unit, seed))]
     fn render_batch<'py>(
         &self,
         py: Python<'py>,
         items: Vec<BatchItem<'py>>,
+        depth_unit: &str,
         seed: Option<u64>,
     ) -> PyResult<Vec<Bound<'py, PyBytes>>> {
         let seed = seed.unwrap_or(self.seed);
+        let depth_unit = DepthUnitArg::parse(depth_unit)?;
         let jobs = items
             .iter()
             .enumerate()
@@ -683,6 +788,7 @@ impl NativeRenderer {
                     clean: clean.view()?,
                     reference: reference.as_ref().map(Bound::get),
                     depth: depth.as_ref().map(Pixels::view).transpose()?,
+                    depth_unit,
                     seed: uwnr_baselines::item_seed(seed, i),
                 })
             })

@@ -151,6 +151,54 @@ def test_depth_maps_are_used_and_resized(network):
     assert np.array_equal(jerlov.render(clean, None, prior), jerlov.render(clean))
 
 
+def test_metric_depth_renders_as_the_cli_does(cli, network, pngs, tmp_path):
+    d, clean, ref = pngs
+    h, w = clean.shape[:2]
+    # 16-bit millimetres, 1 m at the bottom to 6 m at the top, with a hole.
+    mm = np.tile(np.linspace(6000, 1000, h, dtype=np.float64)[:, None], (1, w)).astype(np.uint16)
+    mm[0, 0] = 0
+    Image.fromarray(mm).save(d / "mm.png")
+    out = tmp_path / "out.png"
+    run_cli(
+        cli, "render", d / "clean.png", "--reference", d / "ref.png",
+        "--depth", d / "mm.png", "--depth-unit", "mm", "--output", out,
+    )
+    got = network.render(clean, ref, mm, depth_unit="mm")
+    assert np.abs(got.astype(int) - read_png(out)).max() <= 1
+    # Metres are millimetres / 1000.
+    metres = network.render(clean, ref, mm.astype(np.float32) / 1000, depth_unit="m")
+    assert np.abs(metres.astype(int) - got).max() <= 1
+
+
+def test_depth_units_change_the_render_as_water_would(network):
+    clean, ref = gradient(64, 64), water(64, 64)
+    ramp = np.tile(np.linspace(1, 0, 64, dtype=np.float32)[:, None], (1, 64))
+    relative = network.render(clean, ref, ramp, depth_unit="relative")
+    prior_like = uwnr.Renderer(prior_trust=1.0).render(clean, ref)
+    assert relative.shape == prior_like.shape
+    # Trusted: the far top keeps less contrast than the near bottom, more so than the prior's
+    # default response does.
+    def spread(img, rows):
+        return float(img[rows].astype(float).std())
+    top, bottom = slice(0, 16), slice(48, 64)
+    plain = network.render(clean, ref)
+    assert spread(relative, top) / spread(relative, bottom) < spread(plain, top) / spread(plain, bottom)
+    # A whole scene farther than the reference's 3 m is closer to the veil than one nearer.
+    near = network.render(clean, ref, np.full((64, 64), 1.0, np.float32), depth_unit="m")
+    far = network.render(clean, ref, np.full((64, 64), 8.0, np.float32), depth_unit="m")
+    assert far.astype(float).std() < near.astype(float).std()
+    with pytest.raises(ValueError, match="depth_unit"):
+        network.render(clean, ref, ramp, depth_unit="furlongs")
+    with pytest.raises(ValueError, match="no measured"):
+        network.render(clean, ref, np.zeros((64, 64), np.float32), depth_unit="m")
+    with pytest.raises(ValueError, match="negative"):
+        network.render(clean, ref, -ramp, depth_unit="m")
+    with pytest.raises(ValueError, match="scene scale"):
+        uwnr.Renderer(scene_scale=-1)
+    with pytest.raises(ValueError, match="option"):
+        uwnr.Renderer(depth_scale=3)
+
+
 def test_seeds_draw_the_baselines_parameters():
     clean = gradient(32, 32)
     r = uwnr.Renderer(method="jerlov", seed=4)

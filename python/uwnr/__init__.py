@@ -122,10 +122,22 @@ def _clean(x: ImageLike):
     return _convert.rgb_pixels(arr, "clean image"), kind
 
 
-def _depth(x: Any):
+#: What ``depth_unit`` may say of a depth map: uwnr's absolute [0, 1]; relative (only
+#: differences within the image act); metres; millimetres.
+DEPTH_UNITS = ("absolute", "relative", "m", "mm")
+
+
+def _depth(x: Any, unit: str = "absolute"):
+    """The depth map as native pixels, and the unit the native module reads it in."""
+    if not isinstance(unit, str) or unit not in DEPTH_UNITS:
+        raise ValueError(f"depth_unit must be one of {', '.join(DEPTH_UNITS)}, got {unit!r}")
     if _convert.is_path(x):
         raise TypeError("depth: pass the map as an array (read the file with PIL or imageio)")
-    return _convert.depth_pixels(x)
+    if x is None:
+        return None, "absolute"
+    if unit in ("m", "mm"):
+        return _convert.metric_depth_pixels(x, 1000.0 if unit == "mm" else 1.0), "m"
+    return _convert.depth_pixels(x), unit
 
 
 class Renderer:
@@ -144,8 +156,11 @@ class Renderer:
     :param max_whole_pixels, tile, overlap: tiling of large images, as on the command line.
     :param method_options: a baseline's parameters by name, as in its JSON config, e.g.
         ``water_type="3C"`` for Jerlov, ``space="lab"`` and ``match_std=False`` for Reinhard,
-        ``coefficients={"mode": "given", "beta_d": [...], ...}`` for Sea-thru. An option the
-        method does not have is a ``ValueError``.
+        ``coefficients={"mode": "given", "beta_d": [...], ...}`` for Sea-thru; for ``uwnr``,
+        ``scene_scale`` (the metres a relative depth map spans: a number, default 4, or
+        ``[min, max]`` drawn per image) and ``prior_trust`` (how far the built-in prior's depth
+        differences act, 0 to 1; default 0.075, which keeps self-reconstruction fidelity; ``uwnr
+        dataset`` uses 1). An option the method does not have is a ``ValueError``.
 
     The model loads once; a renderer is safe to share between threads (the GIL is released while
     it renders), to pickle (it is re-created, and the weights reloaded, where it is unpickled) and
@@ -225,6 +240,7 @@ class Renderer:
         reference: Optional[ReferenceLike] = None,
         depth: Any = None,
         *,
+        depth_unit: str = "absolute",
         seed: Optional[int] = None,
         index: int = 0,
     ) -> Any:
@@ -238,6 +254,12 @@ class Renderer:
             differs), read as absolute depth: 0 at the camera, 1 far away, so with the bundled
             model a constant 1 renders the scene far off in the reference's water; ``None`` for
             the built-in prior, a relative map (only depth differences within the image act).
+        :param depth_unit: how ``depth`` is read: ``"absolute"`` (above), ``"relative"`` (a
+            map normalised per image, such as a monocular network's: only differences within
+            the image act, over the renderer's ``scene_scale``), ``"m"`` or ``"mm"`` (measured
+            distances, e.g. NYU-v2's uint16 millimetres; holes as 0 or NaN are filled): the
+            scene's metres go into the water's attenuation, the reference's subject taken to be
+            3 m away. A depth map is trusted fully; the built-in prior ``prior_trust``.
         :param seed, index: the draw of the random parameters: ``item_seed(seed, index)``, with
             ``seed`` defaulting to the renderer's; ``uwnr render`` draws item ``i`` of a batch
             with index ``i``.
@@ -246,10 +268,12 @@ class Renderer:
         """
         pixels, kind = _clean(clean)
         ref = _reference(reference)
+        depth_pixels, unit = _depth(depth, depth_unit)
         out = self._native.render(
             pixels,
             None if ref is None else ref._native,
-            _depth(depth),
+            depth_pixels,
+            unit,
             None if seed is None else int(seed),
             int(index),
         )
@@ -262,6 +286,7 @@ class Renderer:
         references: Union[ReferenceLike, Sequence[Optional[ReferenceLike]], None] = None,
         depths: Optional[Sequence[Any]] = None,
         *,
+        depth_unit: str = "absolute",
         seed: Optional[int] = None,
     ) -> List[Any]:
         """Renders many images in parallel (the GIL is released). ``references`` is one
@@ -287,10 +312,12 @@ class Renderer:
         for i, clean in enumerate(cleans):
             pixels, kind = _clean(clean)
             ref = refs[i % len(refs)]
-            depth = _depth(depths[i]) if depths is not None else None
+            depth, _ = _depth(depths[i] if depths is not None else None, depth_unit)
             items.append((pixels, None if ref is None else ref._native, depth))
             kinds.append(kind)
-        outs = self._native.render_batch(items, None if seed is None else int(seed))
+        # Every map given shares depth_unit; millimetres arrive in metres.
+        native_unit = "m" if depth_unit in ("m", "mm") else depth_unit
+        outs = self._native.render_batch(items, native_unit, None if seed is None else int(seed))
         return [
             _convert.restore(
                 _convert.image_from_bytes(out, item[0][1], item[0][2], item[0][4]), kind

@@ -135,11 +135,8 @@ def rgb_pixels(arr: np.ndarray, what: str = "image") -> Pixels:
     return (values.tobytes(), height, width, 3, dtype)
 
 
-def depth_pixels(depth: Any) -> Optional[Pixels]:
-    """A depth map (HxW or HxWx1; float in [0, 1], uint8 or uint16; bright = far) as 1-channel
-    float32 pixels, or ``None``."""
-    if depth is None:
-        return None
+def _depth_array(depth: Any) -> np.ndarray:
+    """A depth map as an HxW array, checked."""
     arr, _ = to_array(depth, "depth")
     if arr.ndim == 3 and arr.shape[2] == 1:
         arr = arr[:, :, 0]
@@ -147,10 +144,35 @@ def depth_pixels(depth: Any) -> Optional[Pixels]:
         raise ValueError(f"depth: expected an HxW map, got shape {arr.shape}")
     if arr.shape[0] == 0 or arr.shape[1] == 0:
         raise ValueError(f"depth: map is empty, shape {arr.shape}")
+    return arr
+
+
+def depth_pixels(depth: Any) -> Optional[Pixels]:
+    """A depth map (HxW or HxWx1; float in [0, 1], uint8 or uint16; bright = far) as 1-channel
+    float32 pixels, or ``None``."""
+    if depth is None:
+        return None
+    arr = _depth_array(depth)
     values = _unit_float(arr, "depth")
     if values.dtype == np.uint8:
         values = values.astype(np.float32) / np.float32(255.0)
     values = np.ascontiguousarray(values, dtype=np.float32)
+    return (values.tobytes(), values.shape[0], values.shape[1], 1, "float32")
+
+
+def metric_depth_pixels(depth: Any, per_metre: float) -> Pixels:
+    """A depth map in metres (``per_metre`` = 1) or millimetres (1000), HxW or HxWx1, any
+    non-negative numbers (holes as 0 or NaN), as 1-channel float32 metres."""
+    arr = _depth_array(depth)
+    if arr.dtype.kind not in "uif":
+        raise ValueError(f"depth: dtype {arr.dtype} is not a number type")
+    values = arr.astype(np.float32) / np.float32(per_metre)
+    values = np.where(np.isfinite(values), values, np.float32(0.0)).astype(np.float32)
+    if values.min() < 0.0:
+        raise ValueError(f"depth: distances must not be negative, got {float(values.min()):.4g}")
+    if not (values > 0.0).any():
+        raise ValueError("depth: holds no measured value (every value is 0 or not finite)")
+    values = np.ascontiguousarray(values)
     return (values.tobytes(), values.shape[0], values.shape[1], 1, "float32")
 
 

@@ -48,12 +48,14 @@ class NativeRenderer:
         clean: Pixels,
         reference: Optional[NativeReference],
         depth: Optional[Pixels],
+        depth_unit: str,
         seed: Optional[int],
         index: int,
     ) -> bytes: ...
     def render_batch(
         self,
         items: List[Tuple[Pixels, Optional[NativeReference], Optional[Pixels]]],
+        depth_unit: str,
         seed: Optional[int],
     ) -> List[bytes]: ...
 

@@ -37,6 +37,7 @@ fn depth_map(clean: &Image, path: &Path, normalize: bool) -> Image {
         path: path.to_path_buf(),
         invert: false,
         normalize,
+        unit: uwnr_depth::DepthUnit::Relative,
     }
     .prepare()
     .unwrap()

@@ -89,9 +89,22 @@ pub struct DepthOpts {
     /// Flip the depth convention (for maps where near is bright, or models that output depth).
     #[arg(long)]
     pub depth_invert: bool,
-    /// Min-max normalise depth maps to [0,1] (for metric depth such as 16-bit millimetres).
+    /// Min-max normalise depth maps to [0,1], making them relative (holes stored as 0 are
+    /// filled from their neighbours first).
     #[arg(long)]
     pub depth_normalize: bool,
+    /// What the values of depth maps mean: `relative` (code / largest code, the default), `mm`
+    /// (16-bit millimetres: NYU-v2, Redwood), `m` (metres: float TIFF or .npy), or a number N of
+    /// codes per metre (KITTI: 256). Metric maps put the scene's distances in metres into the
+    /// water's attenuation; their holes (0) are filled from their neighbours.
+    #[arg(long, value_name = "UNIT", value_parser = parse_depth_unit, conflicts_with = "depth_model")]
+    pub depth_unit: Option<uwnr_depth::DepthUnit>,
+    /// Trust in the built-in prior's depth differences within an image, 0 (none) to 1 (as a
+    /// measured map). Default 0.075 for `render` (keeps self-reconstruction fidelity), 1 for
+    /// `dataset` and `experiment` (no target; realism and variety count). Maps and depth models
+    /// the user gives are always trusted fully.
+    #[arg(long, value_name = "T")]
+    pub prior_trust: Option<f32>,
     /// Input size WxH for ONNX depth models with a dynamic input shape.
     #[arg(long, value_name = "WxH", value_parser = parse_size)]
     pub depth_input_size: Option<(usize, usize)>,
@@ -272,7 +285,10 @@ pub struct BaselineOpts {
     /// Jerlov water type (with --method jerlov); random per image if absent.
     #[arg(long, value_enum, ignore_case = true, value_name = "TYPE")]
     pub water_type: Option<WaterTypeArg>,
-    /// Range MIN,MAX (metres) that depth in [0,1] is scaled to, sampled per image.
+    /// Range MIN,MAX (metres) that a depth map's [0,1] is scaled to, sampled per image (or one
+    /// value M). jerlov, seathru: their scene depths. uwnr: the scene scale of relative maps
+    /// (the prior, depth models, normalised maps; default 4 m for render, 1.5,8 per pair for
+    /// datasets); metric maps keep their own metres.
     #[arg(long, value_name = "MIN,MAX", value_parser = parse_range)]
     pub depth_scale: Option<(f64, f64)>,
     /// Range MIN,MAX (metres) of the background distance, sampled per image.
@@ -381,11 +397,25 @@ pub struct DatasetMakeArgs {
     pub precision: PrecisionArg,
 }
 
-/// Parses `MIN,MAX`.
+/// Parses `--depth-unit`: `relative`, `mm`, `m`, or N codes per metre.
+pub fn parse_depth_unit(s: &str) -> Result<uwnr_depth::DepthUnit, String> {
+    use uwnr_depth::DepthUnit;
+    match s.trim().to_ascii_lowercase().as_str() {
+        "relative" => Ok(DepthUnit::Relative),
+        "mm" | "millimetres" | "millimeters" => Ok(DepthUnit::Millimetres),
+        "m" | "metres" | "meters" => Ok(DepthUnit::Metres),
+        other => match other.parse::<u32>() {
+            Ok(n) if n > 0 => Ok(DepthUnit::CodesPerMetre(n)),
+            _ => Err(format!(
+                "expected relative, mm, m or a positive number of codes per metre, got {s:?}"
+            )),
+        },
+    }
+}
+
+/// Parses `MIN,MAX`, or one value `M` for `M,M`.
 pub fn parse_range(s: &str) -> Result<(f64, f64), String> {
-    let (a, b) = s
-        .split_once(',')
-        .ok_or_else(|| format!("expected MIN,MAX, got {s:?}"))?;
+    let (a, b) = s.split_once(',').unwrap_or((s, s));
     let a: f64 = a
         .trim()
         .parse()

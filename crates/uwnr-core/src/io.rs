@@ -99,6 +99,27 @@ pub fn load_gray(path: &Path, limits: &DecodeLimits) -> Result<Image> {
     to_planar(&decoded, Target::Gray)
 }
 
+/// Decodes a grey map file into 1 channel of raw code values, with the largest code its sample
+/// type can hold: `(codes, 255)` for 8-bit files, `(codes, 65535)` for 16-bit files and
+/// `(values, 1)` for float files (32-bit float TIFF), whose values are kept as stored. Metric
+/// depth maps need the codes themselves (16-bit millimetres), not [`load_gray`]'s fraction.
+pub fn load_gray_codes(path: &Path, limits: &DecodeLimits) -> Result<(Image, f32)> {
+    let bytes = read_file(path)?;
+    let decoded = decode(&bytes, path, limits)?;
+    let max_code = match decoded.color().bytes_per_pixel() / decoded.color().channel_count() {
+        1 => f32::from(u8::MAX),
+        2 => f32::from(u16::MAX),
+        _ => 1.0,
+    };
+    let mut img = to_planar(&decoded, Target::Gray)?;
+    if max_code != 1.0 {
+        for v in img.plane_mut(0) {
+            *v = (*v * max_code).round();
+        }
+    }
+    Ok((img, max_code))
+}
+
 /// Saves a 3-channel image as 8-bit PNG or JPEG (quality [`JPEG_QUALITY`]), chosen by the
 /// extension (`.png`, `.jpg`, `.jpeg`, any case). Values are rounded as [`to_rgb8`] does.
 pub fn save_rgb(path: &Path, img: &Image) -> Result<()> {

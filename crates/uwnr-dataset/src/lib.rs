@@ -12,12 +12,14 @@
 //! OUT/dataset.json         settings and inputs (compared on every resume)
 //! OUT/manifest.jsonl       one line per complete pair
 //! OUT/underwater/NAME_k.png, OUT/clean/NAME_k.png   the pair
-//! OUT/depth/NAME_k.png     16-bit depth, bright = far (optional)
+//! OUT/depth/NAME_k.png     16-bit depth the render used, bright = far (optional; the pair's
+//!                          `params.depth` in the manifest says what 1 stands for)
 //! OUT/lightfield/NAME_k.png  the light field the network saw (optional)
 //! OUT/failed.jsonl         what the last run could not make (absent when nothing failed)
 //! OUT/preview.png, OUT/index.html, OUT/gallery/   a look at the result
 //! ```
 
+pub mod depth;
 pub mod error;
 pub mod gallery;
 pub mod manifest;
@@ -27,6 +29,7 @@ pub mod renderer;
 pub mod run;
 pub mod verify;
 
+pub use depth::{DATASET_PRIOR_TRUST, DATASET_SCENE_SCALE_M, DepthPolicy};
 pub use error::{DatasetError, Result};
 pub use manifest::{Failure, Record, Settings};
 pub use merge::{MergeReport, merge};

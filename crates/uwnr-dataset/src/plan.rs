@@ -101,8 +101,9 @@ impl FromStr for Shard {
 }
 
 /// Image files under `paths`: files as given, folders searched recursively (skipping the folder
-/// `exclude`, a dataset being written inside an input folder); each folder's images sorted by
-/// path. Files given explicitly are kept whatever their extension, so a bad file is reported,
+/// `exclude`, a dataset being written inside an input folder, and the `depth/` folder of an
+/// RGB-D layout, `X/rgb/` beside `X/depth/`, whose maps are not photos); each folder's images
+/// sorted by path. Files given explicitly are kept whatever their extension, so a bad file is reported,
 /// not hidden.
 pub fn discover_images(
     paths: &[PathBuf],
@@ -137,9 +138,13 @@ fn walk(dir: &Path, exclude: Option<&Path>, out: &mut Vec<PathBuf>) -> Result<()
     if exclude.is_some_and(|x| dir.canonicalize().is_ok_and(|d| d == x)) {
         return Ok(());
     }
+    let rgbd = dir.join("rgb").is_dir() && dir.join("depth").is_dir();
     for entry in std::fs::read_dir(dir).map_err(io_err(dir))? {
         let path = entry.map_err(io_err(dir))?.path();
         if path.is_dir() {
+            if rgbd && path.file_name().is_some_and(|n| n == "depth") {
+                continue;
+            }
             walk(&path, exclude, out)?;
         } else if path.is_file() && uwnr_core::io::is_image_path(&path) {
             out.push(path);

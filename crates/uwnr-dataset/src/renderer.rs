@@ -7,7 +7,9 @@ use std::sync::Mutex;
 use serde_json::json;
 use uwnr_baselines::{Method, RenderInput, SeathruCoefficients};
 use uwnr_core::Image;
-use uwnr_model::{GeneratorConfig, Network as Generator, ReferenceStyle, RenderOptions};
+use uwnr_model::{
+    DepthResponse, GeneratorConfig, Network as Generator, ReferenceStyle, RenderOptions,
+};
 
 use crate::error::{DatasetError, Result};
 
@@ -233,12 +235,14 @@ impl Worker<'_> {
         matches!(self, Self::Baseline(_))
     }
 
-    /// Renders one pair; returns the underwater image and the parameters to record.
+    /// Renders one pair; returns the underwater image and the parameters to record. `response`
+    /// is how the network responds to `depth` (what its values stand for, how far they are
+    /// trusted), recorded with its pairs; the baselines read the map with their own scales.
     pub fn render(
         &self,
         clean: &Image,
         depth: &Image,
-        relative_depth: bool,
+        response: &DepthResponse,
         reference: Option<ReferenceInput<'_>>,
         seed: u64,
     ) -> std::result::Result<(Image, serde_json::Value), String> {
@@ -251,12 +255,15 @@ impl Worker<'_> {
                         depth,
                         reference.style,
                         &RenderOptions {
-                            relative_depth,
+                            depth: *response,
                             ..net.options
                         },
                     )
                     .map_err(|e| format!("rendering: {e}"))?;
-                Ok((out, json!({ "weights": net.weights })))
+                Ok((
+                    out,
+                    json!({ "weights": net.weights, "depth": depth_record(response) }),
+                ))
             }
             Self::Gan { generator, gan } => {
                 let (out, v) =
@@ -285,6 +292,25 @@ impl Worker<'_> {
                 Ok((rendered.image, rendered.params))
             }
         }
+    }
+}
+
+/// What a pair records of its depth response: `scale` (`relative` with `scene_m`, `metric` with
+/// `max_m`, or `absolute`) and `trust`, rounded to 4 decimals so that the manifest's numbers read
+/// back and write out unchanged (an f32 widened to f64 prints 17 digits, which a JSON reader
+/// need not return exactly).
+#[must_use]
+pub fn depth_record(response: &DepthResponse) -> serde_json::Value {
+    let round = |v: f32| (f64::from(v) * 1e4).round() / 1e4;
+    let trust = round(response.trust);
+    match response.scale {
+        uwnr_model::DepthScale::Relative { scene_m } => {
+            json!({ "scale": "relative", "scene_m": round(scene_m), "trust": trust })
+        }
+        uwnr_model::DepthScale::Metric { max_m } => {
+            json!({ "scale": "metric", "max_m": round(max_m), "trust": trust })
+        }
+        uwnr_model::DepthScale::Absolute => json!({ "scale": "absolute", "trust": trust }),
     }
 }
 
@@ -369,6 +395,7 @@ mod tests {
             save_depth: false,
             save_lightfield: false,
             depth: uwnr_depth::DepthSource::Builtin,
+            depth_policy: crate::DepthPolicy::default(),
         };
         let opts = crate::RunOptions {
             shard: None,

@@ -30,6 +30,8 @@ use uwnr_core::resize::resize_bilinear;
 use uwnr_depth::{DepthSource, PreparedDepth};
 use uwnr_model::ReferenceStyle;
 
+use crate::depth::DepthPolicy;
+
 use crate::error::{DatasetError, Result, io_err};
 use crate::manifest::{
     CLEAN_DIR, DEPTH_DIR, FORMAT, Failure, LIGHTFIELD_DIR, ManifestWriter, PAIR_DIRS, Record,
@@ -58,6 +60,8 @@ pub struct Spec {
     pub save_lightfield: bool,
     /// Where depth comes from.
     pub depth: DepthSource,
+    /// Maps beside the clean images, the scene scale per pair, the trust in the prior.
+    pub depth_policy: DepthPolicy,
 }
 
 /// How to run it.
@@ -149,6 +153,7 @@ pub fn generate(
             "--per-image must be at least 1".into(),
         ));
     }
+    spec.depth_policy.validate()?;
     std::fs::create_dir_all(out).map_err(io_err(out))?;
     let exclude = out.canonicalize().map_err(io_err(out))?;
     let cleans = discover_images(&spec.clean, "clean", Some(&exclude))?;
@@ -188,6 +193,8 @@ pub fn generate(
         method_params: renderer.settings_params()?,
         depth_source: serde_json::to_value(&spec.depth)
             .map_err(|e| DatasetError::Invalid(format!("cannot record the depth source: {e}")))?,
+        depth_policy: serde_json::to_value(spec.depth_policy)
+            .map_err(|e| DatasetError::Invalid(format!("cannot record the depth policy: {e}")))?,
         per_image: spec.per_image,
         seed: spec.seed,
         size: spec.size,
@@ -285,6 +292,22 @@ pub fn generate(
         .depth
         .prepare()
         .map_err(|e| DatasetError::Invalid(format!("preparing the depth source: {e}")))?;
+    // Measured depth beside the clean images, where the prior would otherwise guess.
+    let beside = if spec.depth_policy.beside && spec.depth == DepthSource::Builtin {
+        uwnr_depth::beside_maps(&cleans)
+            .map_err(|e| DatasetError::Invalid(format!("finding depth maps: {e}")))?
+    } else {
+        vec![None; cleans.len()]
+    };
+    let with_maps = beside.iter().filter(|m| m.is_some()).count();
+    if with_maps > 0 {
+        observer(Event::Note(&format!(
+            "{with_maps} of {} clean images have a depth map beside them (depth/ next to rgb/), \
+             read as {:?}",
+            cleans.len(),
+            spec.depth_policy.unit
+        )));
+    }
     let names = settings.names();
     let ctx = Context {
         out,
@@ -296,6 +319,7 @@ pub fn generate(
         refs: &refs,
         ref_cache: (0..refs.len()).map(|_| OnceLock::new()).collect(),
         depth: &prepared,
+        beside: &beside,
         limits: &opts.limits,
         stop,
     };
@@ -422,6 +446,8 @@ struct Context<'a> {
     /// Turns references into styles (the network's config decides how).
     renderer: &'a Renderer,
     depth: &'a PreparedDepth,
+    /// Per clean image, its measured map beside it (`X/depth/` next to `X/rgb/`).
+    beside: &'a [Option<PathBuf>],
     limits: &'a DecodeLimits,
     stop: &'a AtomicBool,
 }
@@ -448,16 +474,9 @@ impl Context<'_> {
             }))
             .is_ok()
         };
-        let clean = match load_rgb(source, self.limits)
-            .map_err(|e| e.to_string())
-            .and_then(|img| fit(&img, self.spec.size).map_err(|e| e.to_string()))
-        {
+        let (clean, depth) = match self.clean_and_depth(i) {
             Ok(c) => c,
             Err(reason) => return fail(ids, reason),
-        };
-        let depth = match self.depth.depth_for(&clean, Some(source)) {
-            Ok(d) => d,
-            Err(e) => return fail(ids, format!("depth: {e}")),
         };
         let references = if self.refs.is_empty() {
             Vec::new()
@@ -530,6 +549,31 @@ impl Context<'_> {
         true
     }
 
+    /// Clean image `i` fitted to the pair size, and its depth. Maps from files are read at the
+    /// image's own size and fitted as it is (cover and centre-crop), so that they stay aligned;
+    /// the prior and depth models see the fitted image.
+    fn clean_and_depth(&self, i: usize) -> std::result::Result<(Image, uwnr_depth::Depth), String> {
+        let source = &self.cleans[i];
+        let img = load_rgb(source, self.limits).map_err(|e| e.to_string())?;
+        let clean = fit(&img, self.spec.size).map_err(|e| e.to_string())?;
+        let depth = if let Some(map) = &self.beside[i] {
+            uwnr_depth::Depth::from_file(map, img.size(), self.spec.depth_policy.unit, self.limits)
+                .map_err(|e| format!("depth: {e}"))?
+        } else if self.depth.reads_files() {
+            self.depth
+                .depth_for(&img, Some(source))
+                .map_err(|e| format!("depth: {e}"))?
+        } else {
+            return self
+                .depth
+                .depth_for(&clean, Some(source))
+                .map(|d| (clean, d))
+                .map_err(|e| format!("depth: {e}"));
+        };
+        let map = fit_geometry(&depth.map, self.spec.size).map_err(|e| format!("depth: {e}"))?;
+        Ok((clean, uwnr_depth::Depth { map, ..depth }))
+    }
+
     /// The references of clean image `i`, in draw order: the first K readable ones of its
     /// seeded permutation. `None` when the receiver is gone.
     fn draw(&self, i: usize, tx: &SyncSender<Msg>) -> Option<Vec<(usize, Arc<ReferenceStyle>)>> {
@@ -599,7 +643,8 @@ impl Context<'_> {
             None => (None, None),
         };
         let lf = input.as_ref().map(|r| &r.style.light_field);
-        let (underwater, params) = worker.render(clean, &depth.map, depth.relative, input, seed)?;
+        let response = self.spec.depth_policy.response(depth, seed);
+        let (underwater, params) = worker.render(clean, &depth.map, &response, input, seed)?;
         let name = format!("{id}.png");
         let write = |dir: &str, f: &dyn Fn(&Path) -> uwnr_core::Result<()>| {
             let p = self.out.join(dir).join(&name);
@@ -627,8 +672,13 @@ impl Context<'_> {
 /// The clean image as the pair holds it: fitted to the pair size (cover and centre-crop for a
 /// fixed size) and quantised to 8 bits, so what is rendered is exactly what `clean/` stores.
 pub fn fit(img: &Image, size: Size) -> uwnr_core::Result<Image> {
+    Ok(fit_geometry(img, size)?.quantised())
+}
+
+/// [`fit`] without the quantisation (depth maps).
+pub fn fit_geometry(img: &Image, size: Size) -> uwnr_core::Result<Image> {
     let sized = match size {
-        Size::Native => return Ok(img.quantised()),
+        Size::Native => return Ok(img.clone()),
         Size::Fixed { width, height } => {
             let (w, h) = (img.width() as f64, img.height() as f64);
             let scale = (width as f64 / w).max(height as f64 / h);
@@ -642,7 +692,7 @@ pub fn fit(img: &Image, size: Size) -> uwnr_core::Result<Image> {
             scaled.crop((sw - width) / 2, (sh - height) / 2, width, height)?
         }
     };
-    Ok(sized.quantised())
+    Ok(sized)
 }
 
 #[cfg(test)]

@@ -51,6 +51,15 @@ pub enum DepthError {
         clean: PathBuf,
         candidates: Vec<PathBuf>,
     },
+    /// A metric depth unit was combined with an option that only relative maps take.
+    #[error("a metric depth unit cannot be combined with {option}: its values are distances")]
+    MetricOptions { option: &'static str },
+    /// A depth map holds no measured value (all holes).
+    #[error("depth map {path:?} holds no measured depth (every value is 0 or not finite)")]
+    NoMeasuredDepth { path: PathBuf },
+    /// A depth map file that is not an image could not be read (`.npy`).
+    #[error("depth map {path:?}: {reason}")]
+    BadMapFile { path: PathBuf, reason: String },
     /// The ONNX model file does not exist.
     #[error("depth model {path:?}: no such file")]
     ModelNotFound { path: PathBuf },

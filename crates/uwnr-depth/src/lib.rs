@@ -4,10 +4,13 @@
 //!
 //! A depth map is a **1-channel [`uwnr_core::Image`] with values in [0, 1], the same size as the
 //! clean image, where larger means FARTHER** (more water between the camera and the object;
-//! 0 = nearest, 1 = farthest). It is a *relative* depth: only the ordering and rough proportions
-//! matter, not metres. The generator learns whatever convention its training depth used, so
-//! training and rendering must use the same [`DepthSource`] (UWNR paper, section on depth;
-//! the released code reads precomputed grey maps `/255`).
+//! 0 = nearest, 1 = farthest). The paper's generator learns whatever convention its training
+//! depth used (UWNR paper, section on depth; the released code reads precomputed grey maps
+//! `/255`). A [`Depth`] also says what its values stand for: a *relative* map (the built-in
+//! prior, a monocular network, a normalised map) says only which parts are farther, a *metric*
+//! map ([`DepthUnit`]: 16-bit millimetres, float metres) carries the metres that 1 stands for
+//! ([`Depth::metric_max`]), so that rendering can put the scene's distances in metres into
+//! `t = exp(-beta z)`.
 //!
 //! # Sources
 //!
@@ -33,6 +36,7 @@
 pub mod builtin;
 pub mod error;
 mod maps;
+mod npy;
 pub mod onnx;
 mod util;
 
@@ -44,6 +48,8 @@ use uwnr_core::io::DecodeLimits;
 
 pub use builtin::builtin_depth;
 pub use error::{DepthError, Result};
+pub use maps::{DepthUnit, beside_maps, fill_holes, partner_map, read_map};
+pub use npy::{is_npy_path, load_npy};
 
 use maps::MapSource;
 use onnx::OnnxDepth;
@@ -66,11 +72,14 @@ pub enum DepthSource {
         /// Use `1 - d`: for maps where near is bright (e.g. disparity maps).
         #[serde(default)]
         invert: bool,
-        /// Min-max normalise each map to [0, 1] (before inverting): for metric depth, e.g.
-        /// NYU's 16-bit millimetres whose raw `/65535` values span only about 0..0.1. Holes
-        /// stored as 0 stay at the nearest value.
+        /// Min-max normalise each map to [0, 1] (before inverting), making it relative. Holes
+        /// stored as 0 are filled from their neighbours first.
         #[serde(default)]
         normalize: bool,
+        /// What the stored values mean; a metric unit keeps the scene's metres (and cannot be
+        /// inverted or normalised). Absent in records made before units existed: relative.
+        #[serde(default, skip_serializing_if = "is_relative")]
+        unit: DepthUnit,
     },
     /// A monocular depth model in ONNX format that outputs relative inverse depth (disparity)
     /// as `[1, H, W]` or `[1, 1, H, W]` (see [`onnx`]).
@@ -88,6 +97,10 @@ pub enum DepthSource {
     },
 }
 
+fn is_relative(unit: &DepthUnit) -> bool {
+    *unit == DepthUnit::Relative
+}
+
 /// A depth map and what was done to produce it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Depth {
@@ -100,6 +113,34 @@ pub struct Depth {
     /// network, maps read with `normalize`), so its level says nothing about how far the scene
     /// is; otherwise its values are absolute depths in uwnr's [0, 1] range (maps as stored).
     pub relative: bool,
+    /// For a metric map, the distance in metres that 1 stands for (the map's farthest value):
+    /// `map * metric_max` is the scene's depth in metres.
+    pub metric_max: Option<f32>,
+    /// Whether the map is the built-in prior's guess rather than a measurement or a model the
+    /// user chose (rendering trusts the prior less: `uwnr_model`'s depth response).
+    pub prior: bool,
+}
+
+impl Depth {
+    /// The depth read from the map file `path` for a clean image of `clean_size` with `unit`:
+    /// metric units keep their metres, relative maps are min-max normalised (holes filled
+    /// first), as an RGB-D set's `depth/` folder is read.
+    pub fn from_file(
+        path: &Path,
+        clean_size: (usize, usize),
+        unit: DepthUnit,
+        limits: &DecodeLimits,
+    ) -> Result<Self> {
+        let normalize = !unit.is_metric();
+        let (map, notes, metric_max) = read_map(path, clean_size, unit, normalize, limits)?;
+        Ok(Self {
+            map,
+            notes,
+            relative: metric_max.is_none(),
+            metric_max,
+            prior: false,
+        })
+    }
 }
 
 /// A [`DepthSource`] ready to produce maps: files indexed or decoded, the model loaded and
@@ -132,7 +173,8 @@ impl DepthSource {
                 path,
                 invert,
                 normalize,
-            } => Prepared::Maps(MapSource::new(path, *invert, *normalize, limits)?),
+                unit,
+            } => Prepared::Maps(MapSource::new(path, *invert, *normalize, *unit, limits)?),
             Self::Onnx {
                 model,
                 invert,
@@ -144,19 +186,34 @@ impl DepthSource {
 }
 
 impl PreparedDepth {
+    /// Whether the maps come from files (a map resized to an image must see the image's own
+    /// geometry, before any crop).
+    #[must_use]
+    pub fn reads_files(&self) -> bool {
+        matches!(self.inner, Prepared::Maps(_))
+    }
+
     /// The depth map of `clean` (1 or 3 channels, values in [0, 1]) in uwnr's convention, at
     /// the clean image's size. `clean_path` is where the clean image was read from; it is
     /// needed only by a directory of maps (to find the partner by file stem).
     pub fn depth_for(&self, clean: &Image, clean_path: Option<&Path>) -> Result<Depth> {
-        let ((map, notes), relative) = match &self.inner {
-            Prepared::Builtin => ((builtin_depth(clean)?, Vec::new()), true),
-            Prepared::Maps(maps) => (maps.depth_for(clean, clean_path)?, maps.normalizes()),
-            Prepared::Onnx(model) => (model.depth_for(clean)?, true),
+        let (map, notes, metric_max, relative) = match &self.inner {
+            Prepared::Builtin => (builtin_depth(clean)?, Vec::new(), None, true),
+            Prepared::Maps(maps) => {
+                let (map, notes, metric) = maps.depth_for(clean, clean_path)?;
+                (map, notes, metric, maps.normalizes())
+            }
+            Prepared::Onnx(model) => {
+                let (map, notes) = model.depth_for(clean)?;
+                (map, notes, None, true)
+            }
         };
         Ok(Depth {
             map,
             notes,
             relative,
+            metric_max,
+            prior: matches!(self.inner, Prepared::Builtin),
         })
     }
 }

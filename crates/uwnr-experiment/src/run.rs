@@ -63,6 +63,8 @@ pub struct DownstreamSpec {
     pub seed: u64,
     /// Depth of the clean images.
     pub depth: DepthSource,
+    /// Maps beside the clean images, scene scales, trust in the prior.
+    pub depth_policy: uwnr_dataset::DepthPolicy,
     /// Enhancer training (its `epochs` is set per training set from `budget`, its learning-rate
     /// steps from [`LR_DECAYS_PER_RUN`], its seed from `seed`).
     pub train: EnhanceTrainConfig,
@@ -470,6 +472,7 @@ pub fn run_downstream(
         save_depth: false,
         save_lightfield: false,
         depth: spec.depth.clone(),
+        depth_policy: spec.depth_policy,
     };
     let real_names: Vec<String> = short_names(&spec.real)
         .into_iter()
@@ -611,6 +614,7 @@ mod tests {
             size: Size::Native,
             seed: 3,
             depth: DepthSource::default(),
+            depth_policy: uwnr_dataset::DepthPolicy::default(),
             train: EnhanceTrainConfig::default(),
             budget,
             eval_max_side: None,

@@ -217,28 +217,6 @@ enum DepthPlan<'a> {
     Maps(&'a [PathBuf]),
 }
 
-/// The number that ends a file stem (`"sync_depth_00050"` -> `"00050"`), if any.
-fn trailing_number(path: &Path) -> Option<&str> {
-    let stem = path.file_stem()?.to_str()?;
-    let digits = stem.len() - stem.trim_end_matches(|c: char| c.is_ascii_digit()).len();
-    (digits > 0).then(|| &stem[stem.len() - digits..])
-}
-
-/// The depth map of `image` among `maps`: the one with the same file stem, or else the only one
-/// whose stem ends in the same number.
-fn find_depth_map<'a>(image: &Path, maps: &'a [PathBuf]) -> Option<&'a PathBuf> {
-    let stem = image.file_stem();
-    if let Some(m) = maps.iter().find(|m| m.file_stem() == stem) {
-        return Some(m);
-    }
-    let number = trailing_number(image)?;
-    let mut same = maps.iter().filter(|m| trailing_number(m) == Some(number));
-    match (same.next(), same.next()) {
-        (Some(m), None) => Some(m),
-        _ => None,
-    }
-}
-
 /// Decodes a clean image, computes its depth, and pads both up to `crop`.
 fn load_clean(
     path: &Path,
@@ -250,7 +228,7 @@ fn load_clean(
     let map = match plan {
         DepthPlan::Prior(prior) => prior.depth_for(&image, Some(path))?.map,
         DepthPlan::Maps(maps) => {
-            let file = find_depth_map(path, maps).ok_or_else(|| {
+            let file = uwnr_depth::partner_map(path, maps).ok_or_else(|| {
                 GanError::Run(uwnr_run::RunError::BadImage {
                     path: path.to_path_buf(),
                     reason: "no depth map with the same stem or number".into(),
@@ -260,6 +238,7 @@ fn load_clean(
                 path: file.clone(),
                 invert: false,
                 normalize: true,
+                unit: uwnr_depth::DepthUnit::Relative,
             }
             .prepare_with_limits(*limits)?
             .depth_for(&image, None)?
@@ -524,8 +503,9 @@ mod tests {
         .iter()
         .map(PathBuf::from)
         .collect();
-        let find =
-            |p: &str| find_depth_map(Path::new(p), &maps).map(|m| m.to_string_lossy().into_owned());
+        let find = |p: &str| {
+            uwnr_depth::partner_map(Path::new(p), &maps).map(|m| m.to_string_lossy().into_owned())
+        };
         assert_eq!(
             find("r/rgb_00050.jpg").as_deref(),
             Some("d/sync_depth_00050.png")

@@ -8,6 +8,7 @@
 //! | UIQM | [`uiqm`], [`uiqm_with`] | Panetta et al. 2016, as coded in FUnIE-GAN's `Evaluation/uqim_utils.py` (10x10 tiles, RGB); preset [`UiqmConfig::shallow_uwnet`] (8x8, BGR) |
 //! | UCIQE | [`uciqe`], [`uciqe_components`] | Yang & Sowmya 2015, as coded in xueleichen/PSNR-SSIM-UCIQE-UIQM-Python `nevaluate.py` (skimage Lab units) |
 //! | Fréchet distance | [`frechet_distance`], [`frechet_distance_from_stats`] | pytorch-fid's formula, through symmetric eigendecompositions (exact for n < d) |
+//! | depth effect | [`depth_effect`] | uwnr's own: far/near contrast kept with a real depth map over the same with a constant one (1 = distance does nothing) |
 //! | KID | [`kid`] | Bińkowski et al. 2018; cubic polynomial kernel, unbiased MMD², subsets as torch-fidelity / clean-fid |
 //!
 //! Features for the two distances ([`FeatureExtractor`]): [`OnnxInception`] (a user's
@@ -29,6 +30,7 @@
 //! - every metric is finite on flat images (where the UIQM reference returns NaN);
 //! - all functions are pure; large images use rayon internally.
 
+mod depth;
 mod error;
 mod features;
 mod filter;
@@ -41,6 +43,7 @@ mod ssim;
 mod uciqe;
 mod uiqm;
 
+pub use depth::{DEPTH_BLOCK, FLAT_BLOCK_STD, depth_effect, far_near_contrast};
 pub use error::{MetricsError, Result};
 pub use features::{
     COLOR_TEXTURE_DIM, COLOR_TEXTURE_WORKING_SIZE, ColorTextureFeatures, FeatureExtractor,

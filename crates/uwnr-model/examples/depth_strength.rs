@@ -2,8 +2,9 @@
 //! at zero (a fresh model), with the built-in depth prior: the Reinhard transfer alone, with
 //! light-field retention, with retention then the statistics matched again, with detail
 //! retention after light-field retention (alone and with the shipped depth stage), and the full
-//! pipeline without detail retention for several within-image depth strengths. Prints PSNR /
-//! SSIM means.
+//! pipeline, with and without detail retention, for several trusts in the prior's depth
+//! differences (`uwnr render --prior-trust`) at the default scene scale. Prints PSNR / SSIM
+//! means.
 //!
 //! `cargo run --release -p uwnr-model --example depth_strength -- PAIRS_DIR...`
 //! (each with `clean/` and `underwater/`, matched by file name).
@@ -16,11 +17,11 @@ use uwnr_core::Image;
 use uwnr_core::io::{DecodeLimits, load_rgb};
 use uwnr_core::lightfield::{LightFieldMap, light_field_for_with};
 use uwnr_model::style::{
-    LOCAL_DEPTH_STRENGTH, anchor, colour_transfer, detail_share, estimate_water, finish_with,
-    retain_detail,
+    DepthResponse, anchor, colour_transfer, detail_share, estimate_water, finish, retain_detail,
 };
 
-const STRENGTHS: [f32; 6] = [0.0, 0.05, 0.1, 0.25, 0.5, 1.0];
+/// Trusts in the prior; 0.075 is the shipped one (`PRIOR_TRUST`).
+const TRUSTS: [f32; 7] = [0.0, 0.075, 0.15, 0.375, 0.75, 1.0, 1.5];
 const STEPS: [&str; 5] = [
     "Reinhard transfer",
     "+ light-field retention",
@@ -44,7 +45,8 @@ fn main() {
             .collect();
         names.sort();
         let mut steps = [(0.0, 0.0); STEPS.len()];
-        let mut strengths = [(0.0, 0.0); STRENGTHS.len()];
+        let mut trusts = [(0.0, 0.0); TRUSTS.len()];
+        let mut detail_trusts = [(0.0, 0.0); TRUSTS.len()];
         for name in &names {
             let under = load_rgb(&dir.join("underwater").join(name), &limits).unwrap();
             let clean = load_rgb(&dir.join("clean").join(name), &limits).unwrap();
@@ -58,24 +60,21 @@ fn main() {
             let again = transfer_to_stats(&a, water.stats, ColourSpace::LAlphaBeta).unwrap();
             let detail = retain_detail(a.clone(), detail_share(&under)).unwrap();
             let raw = Image::filled(w, h, 6, 0.0);
-            let detail_depth = finish_with(
-                raw.clone(),
-                detail.clone(),
-                &depth,
-                &water,
-                None,
-                LOCAL_DEPTH_STRENGTH,
-            )
-            .unwrap();
+            let shipped = DepthResponse::default();
+            let detail_depth =
+                finish(raw.clone(), detail.clone(), &depth, &water, &shipped).unwrap();
             for (sum, img) in steps
                 .iter_mut()
                 .zip([&transfer, &a, &again, &detail, &detail_depth])
             {
                 score(sum, img, &under);
             }
-            for (sum, &s) in strengths.iter_mut().zip(&STRENGTHS) {
-                let out = finish_with(raw.clone(), a.clone(), &depth, &water, None, s).unwrap();
-                score(sum, &out, &under);
+            for (k, &trust) in TRUSTS.iter().enumerate() {
+                let response = DepthResponse { trust, ..shipped };
+                let out = finish(raw.clone(), a.clone(), &depth, &water, &response).unwrap();
+                score(&mut trusts[k], &out, &under);
+                let out = finish(raw.clone(), detail.clone(), &depth, &water, &response).unwrap();
+                score(&mut detail_trusts[k], &out, &under);
             }
         }
         let n = names.len() as f64;
@@ -83,11 +82,13 @@ fn main() {
         for (name, v) in STEPS.iter().zip(&steps) {
             println!("  {name}: {:.2} dB / {:.3}", v.0 / n, v.1 / n);
         }
-        for (s, v) in STRENGTHS.iter().zip(&strengths) {
+        for ((t, v), d) in TRUSTS.iter().zip(&trusts).zip(&detail_trusts) {
             println!(
-                "  + depth stage, strength {s:.2}: {:.2} dB / {:.3}",
+                "  + depth stage, prior trust {t:.3}: {:.2} dB / {:.3}; with detail retention {:.2} dB / {:.3}",
                 v.0 / n,
-                v.1 / n
+                v.1 / n,
+                d.0 / n,
+                d.1 / n
             );
         }
     }

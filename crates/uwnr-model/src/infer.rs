@@ -31,7 +31,7 @@ use uwnr_engine::Planar;
 use crate::config::{LEVELS, SIZE_MULTIPLE};
 use crate::error::{ModelError, Result};
 use crate::generator::Generator;
-use crate::style::{REFERENCE_DEPTH, ReferenceStyle, Variant, anchor, finish};
+use crate::style::{DepthResponse, ReferenceStyle, Variant, anchor, finish};
 use crate::weights::read_tensor;
 
 /// What tiled rendering needs of a generator implementation (burn's module or the engine),
@@ -154,8 +154,8 @@ const MIN_RAMP: usize = 32;
 /// starts on the 16-pixel grid.
 const OVERLAP_MULTIPLE: usize = 2 * SIZE_MULTIPLE;
 
-/// When and how to tile.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// When and how to tile, and how the anchored variant responds to depth.
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RenderOptions {
     /// Images whose padded size has more pixels than this are rendered in tiles; smaller ones
     /// in one pass. 0 forces tiling.
@@ -165,12 +165,11 @@ pub struct RenderOptions {
     /// Pixels shared by neighbouring tiles (a multiple of 32); half of it extends each tile
     /// beyond its core.
     pub overlap: usize,
-    /// The depth map is relative (normalised per image, as the built-in prior is): the anchored
-    /// variant then takes the image's mean depth to be the reference's and responds only to
-    /// depth differences within the image; with an absolute map (`false`) its mean depth moves
-    /// the whole image towards or away from the veiling light ([`crate::style`]). The paper's
-    /// variant reads depth as given either way.
-    pub relative_depth: bool,
+    /// What the depth map's values stand for and how far its differences are trusted
+    /// ([`crate::style`]; [`DepthResponse::for_depth`] for a `uwnr_depth::Depth`). The default
+    /// is the built-in prior's: relative, the image's mean depth taken to be the reference's.
+    /// The paper's variant reads depth as given either way.
+    pub depth: DepthResponse,
 }
 
 impl Default for RenderOptions {
@@ -182,7 +181,7 @@ impl Default for RenderOptions {
             max_tile_pixels: 1024 * 1024,
             tile: 1024,
             overlap: 6 * OVERLAP_MULTIPLE,
-            relative_depth: true,
+            depth: DepthResponse::default(),
         }
     }
 }
@@ -321,12 +320,7 @@ pub(crate) fn render_with(
             drop(lf_full);
             let sources = [Source::Image(clean), Source::Lazy(&lf), Source::Image(&a)];
             let raw = run(generator, variant, &sources, opts)?;
-            let reference_depth = if opts.relative_depth {
-                None
-            } else {
-                Some(REFERENCE_DEPTH)
-            };
-            finish(raw, a, depth, water, reference_depth)
+            finish(raw, a, depth, water, &opts.depth)
         }
     }
 }

@@ -22,7 +22,7 @@ pub use error::{ModelError, Result};
 pub use generator::{ChannelMeans, Generator};
 pub use infer::{RenderOptions, render};
 pub use network::{Backend, ENGINE_NAME, Network, backend_from_name, backend_names};
-pub use style::{ReferenceStyle, Variant, Water};
+pub use style::{DepthResponse, DepthScale, ReferenceStyle, Variant, Water};
 pub use weights::{
     LoadedWeights, NamedTensor, TensorMap, WeightsDtype, WeightsFormat, WeightsInfo,
     load_generator, load_generator_from_bytes, read_tensor, read_tensor_file, read_weights,

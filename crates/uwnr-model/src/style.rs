@@ -17,10 +17,12 @@
 //! g, o   = G(x)                                   6 output planes, tanh, zero at initialisation
 //! g', o' = Gaussian blur of g and o, sigma SMOOTH_SIGMA px    (a smooth local correction)
 //! N      = A (1 + g') + o'                       the reference's look at the reference's depth
-//! m      = mean of the depth map d over the image
-//! out    = B + (N - B) · min(exp(-beta (k (d - m) + k_g (m - REFERENCE_DEPTH))), MAX_GAIN)
-//!          per channel, k = LOCAL_DEPTH_STRENGTH, k_g = GLOBAL_DEPTH_STRENGTH for an absolute
-//!          depth map and 0 for a relative one (RenderOptions::relative_depth)
+//! z      = s · d, the depth in metres: s = the metres 1 stands for (DepthScale)
+//! z̄      = mean of z over the image; z_ref = the reference's distance: REFERENCE_DISTANCE_M
+//!          for metric and absolute maps, z̄ itself for a relative map
+//! out    = B + (N - B) · min(exp(-beta_m (k (z - z̄) + (z̄ - z_ref))), MAX_GAIN)
+//!          per channel, beta_m per metre, k = the trust in the map's differences
+//!          (DepthResponse: 1 for a map or model the user gives, PRIOR_TRUST for the prior)
 //! ```
 //!
 //! - Light-field retention is the paper's idea (keep the reference's light field) done
@@ -51,15 +53,22 @@
 //!   the normalised depth map), so `J = B + (N - B) / t(z_ref)` and
 //!   `I(z) = B + (N - B) t(z) / t(z_ref)`. Farther than the reference the image moves towards the
 //!   veiling light `B` and loses contrast; nearer it regains contrast, up to `MAX_GAIN`. The
-//!   image's mean depth `m` takes half the response (`GLOBAL_DEPTH_STRENGTH`) when the map is
-//!   absolute (a constant map at 1 is a scene far away); a relative map (normalised per image,
-//!   as the built-in prior and monocular networks give) says nothing about how far the scene is,
-//!   so its mean is taken to be the reference's and only differences within the image act.
-//!   Those take `LOCAL_DEPTH_STRENGTH` of the response, because relative maps say little about
-//!   how much water lies between near and far parts: measured on `paired/uieb-val` (and the
-//!   held-out `lsui-test`) with the prior and the network's correction at zero
-//!   (`examples/depth_strength.rs`), strengths 0, 0.05, 0.1, 0.25, 0.5 and 1 score 30.40
-//!   (30.62), 30.23 (30.58), 29.84 (30.36), 28.24 (29.04), 25.46 (26.40) and 21.60 (22.89) dB.
+//!   image's mean depth acts when the map says how far the scene is: a metric map (metres, the
+//!   reference's subject taken to be [`REFERENCE_DISTANCE_M`] away) or an absolute one (uwnr's
+//!   [0, 1], [`REFERENCE_DEPTH`] standing for the reference's distance; a constant map at 1 is
+//!   a scene far away). A relative map (normalised per image, as the built-in prior and
+//!   monocular networks give) says nothing about how far the scene is, so its mean is taken to
+//!   be the reference's and only differences within the image act, its [0, 1] spanning a scene
+//!   scale `s` in metres ([`DEFAULT_SCENE_SCALE_M`] unless given; datasets sample it per pair).
+//! - How much the differences within the image act is the trust `k` of [`DepthResponse`]: a
+//!   map the user measured or a model the user chose is trusted (`k = 1`: the water acts over
+//!   the map's distances as it does over the reference's); the built-in prior is a guess (a
+//!   ground-plane ramp), wrong about where the haze of a real target lies, so rendering trusts
+//!   it [`PRIOR_TRUST`]. Measured on `paired/uieb-val` (and the held-out `lsui-test`) with the
+//!   prior, the default scene scale and the network's correction at zero
+//!   (`examples/depth_strength.rs`), prior trusts 0, 0.075, 0.15, 0.375, 0.75 and 1.5 score
+//!   30.40 (30.62), 30.23 (30.58), 29.84 (30.36), 28.24 (29.04), 25.46 (26.40) and 21.60
+//!   (22.89) dB before detail retention (Reinhard lαβ: 29.44 and 29.75).
 //!   The statistics anchor cannot cancel
 //!   the response and the network never sees depth, so it is monotonic by construction,
 //!   whatever the weights (the training notes found that a network fed depth learns to ignore
@@ -127,14 +136,24 @@ pub const REFERENCE_DEPTH: f32 = 0.5;
 pub const AIR_CONTRAST: f64 = 0.25;
 /// Floor of the transmission read off a reference's contrast.
 pub const MIN_TRANSMISSION: f64 = 0.15;
-/// Strength of the response to the image's mean depth (a constant map at 1 against the
-/// reference's depth).
-pub const GLOBAL_DEPTH_STRENGTH: f32 = 0.5;
 /// Largest and smallest per-channel gain of the light-field retention step.
 pub const RETENTION_GAIN: (f32, f32) = (0.5, 2.0);
-/// Strength of the depth response within one image, relative to the response to the image's
-/// mean depth (1 = the same water at every pixel).
+/// Strength of the depth response within one image in training, in units of the normalised
+/// map, relative to the response to the image's mean depth: the built-in prior at
+/// [`PRIOR_TRUST`] over [`DEFAULT_SCENE_SCALE_M`] (the bundled model was trained with it).
 pub const LOCAL_DEPTH_STRENGTH: f32 = 0.05;
+/// The distance in metres at which the reference shows its subject: its contrast gives the
+/// water's transmission at this distance, so `beta` per metre is `-ln t / REFERENCE_DISTANCE_M`.
+/// Underwater photographs are taken close, since visibility is short: 1-5 m in UIEB's and
+/// LSUI's scenes of divers, fish and reefs.
+pub const REFERENCE_DISTANCE_M: f32 = 3.0;
+/// The metres a relative depth map's [0, 1] spans when nothing says otherwise (near to far of an
+/// indoor room or a reef scene; NYU-v2's measured maps span 3.5-6 m, Redwood's about 1.7 m).
+pub const DEFAULT_SCENE_SCALE_M: f32 = 4.0;
+/// How much rendering trusts the built-in prior's depth differences (1 = as a measured map):
+/// the measured choice of the module doc, which keeps self-reconstruction above Reinhard's.
+/// Equal to [`LOCAL_DEPTH_STRENGTH`] at [`DEFAULT_SCENE_SCALE_M`].
+pub const PRIOR_TRUST: f32 = 0.075;
 /// Longest side at which detail retention measures and separates detail, pixels: images are
 /// shrunk to it (never enlarged), so a reference and a photo of other sizes are compared at
 /// one scale. (A prototype of the step on a plain lαβ transfer, `uieb-val` at 1280x720: SSIM
@@ -162,13 +181,141 @@ pub struct Water {
     pub stats: ChannelStats,
     /// Veiling light `B`, RGB in [0, 1].
     pub veil: [f32; 3],
-    /// Attenuation per unit of normalised depth, RGB.
+    /// Attenuation per unit of normalised depth, RGB ([`REFERENCE_DEPTH`] is the reference's
+    /// distance; [`Water::beta_per_metre`] for metres).
     pub beta: [f32; 3],
     /// The reference's share of fine detail per channel ([`detail_share`]) when the model
     /// retains it (`detail_retention` in its config); `None` leaves the anchor's detail alone.
     #[serde(default)]
     pub detail: Option<[f32; 3]>,
 }
+
+impl Water {
+    /// Attenuation per metre, RGB: the reference's subject taken to be [`REFERENCE_DISTANCE_M`]
+    /// away.
+    #[must_use]
+    pub fn beta_per_metre(&self) -> [f32; 3] {
+        self.beta
+            .map(|b| b * REFERENCE_DEPTH / REFERENCE_DISTANCE_M)
+    }
+}
+
+/// What a depth map's values stand for (module doc).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case")]
+pub enum DepthScale {
+    /// Normalised per image: 1 spans `scene_m` metres, and the image's mean is the reference's
+    /// distance.
+    Relative {
+        /// Metres between 0 and 1.
+        scene_m: f32,
+    },
+    /// uwnr's absolute [0, 1]: [`REFERENCE_DEPTH`] is the reference's distance (constant maps,
+    /// maps as stored).
+    Absolute,
+    /// Metres: 1 stands for `max_m` metres; the reference's subject is
+    /// [`REFERENCE_DISTANCE_M`] away.
+    Metric {
+        /// Metres that 1 stands for.
+        max_m: f32,
+    },
+}
+
+impl DepthScale {
+    /// Normalised-depth units per map unit: `beta · unit_gain` acts on the map's values.
+    fn unit_gain(self) -> f32 {
+        match self {
+            Self::Absolute => 1.0,
+            Self::Relative { scene_m: s } | Self::Metric { max_m: s } => {
+                s * REFERENCE_DEPTH / REFERENCE_DISTANCE_M
+            }
+        }
+    }
+
+    /// The reference's distance in map units; `None` for a relative map (the image's mean).
+    fn reference_depth(self) -> Option<f32> {
+        match self {
+            Self::Relative { .. } => None,
+            Self::Absolute => Some(REFERENCE_DEPTH),
+            Self::Metric { max_m } => Some(REFERENCE_DISTANCE_M / max_m),
+        }
+    }
+}
+
+/// How the anchored variant's output responds to a depth map: what its values stand for, and
+/// how much its differences within the image are trusted (module doc).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DepthResponse {
+    /// What the map's values stand for.
+    pub scale: DepthScale,
+    /// Trust in the map's differences within the image, in [0, 1] or a little above.
+    pub trust: f32,
+}
+
+impl Default for DepthResponse {
+    /// The built-in prior: relative, [`DEFAULT_SCENE_SCALE_M`], trusted [`PRIOR_TRUST`].
+    fn default() -> Self {
+        Self {
+            scale: DepthScale::Relative {
+                scene_m: DEFAULT_SCENE_SCALE_M,
+            },
+            trust: PRIOR_TRUST,
+        }
+    }
+}
+
+impl DepthResponse {
+    /// The response to `depth`: a metric map keeps its metres, a relative one spans `scene_m`,
+    /// an absolute one stands as it is; the built-in prior is trusted `prior_trust`, anything
+    /// else fully.
+    #[must_use]
+    pub fn for_depth(depth: &uwnr_depth::Depth, scene_m: f32, prior_trust: f32) -> Self {
+        let scale = match (depth.metric_max, depth.relative) {
+            (Some(max_m), _) => DepthScale::Metric { max_m },
+            (None, true) => DepthScale::Relative { scene_m },
+            (None, false) => DepthScale::Absolute,
+        };
+        Self {
+            scale,
+            trust: if depth.prior { prior_trust } else { 1.0 },
+        }
+    }
+
+    /// An absolute map trusted fully (constant maps: a scene that far away).
+    #[must_use]
+    pub fn absolute() -> Self {
+        Self {
+            scale: DepthScale::Absolute,
+            trust: 1.0,
+        }
+    }
+
+    /// Checks the numbers: a positive finite scale, a finite trust in [0, 4].
+    pub fn validate(&self) -> Result<()> {
+        let scale_ok = match self.scale {
+            DepthScale::Relative { scene_m: s } | DepthScale::Metric { max_m: s } => {
+                s.is_finite() && s > 0.0
+            }
+            DepthScale::Absolute => true,
+        };
+        if !scale_ok {
+            return Err(ModelError::InvalidOptions(format!(
+                "depth scale {:?} must be a positive number of metres",
+                self.scale
+            )));
+        }
+        if !(self.trust.is_finite() && (0.0..=MAX_TRUST).contains(&self.trust)) {
+            return Err(ModelError::InvalidOptions(format!(
+                "depth trust {} must be within [0, {MAX_TRUST}]",
+                self.trust
+            )));
+        }
+        Ok(())
+    }
+}
+
+/// Largest trust accepted (beyond 1 the map's differences act more than its distances say).
+pub const MAX_TRUST: f32 = 4.0;
 
 /// Estimates the water of the underwater image `reference` (module doc), without its detail.
 pub fn estimate_water(reference: &Image) -> Result<Water> {
@@ -507,11 +654,12 @@ fn blur_plane(p: &mut [f32], w: usize, h: usize, sigma: f64) {
     });
 }
 
-/// Depth factor `min(exp(-beta (LOCAL_DEPTH_STRENGTH (d - m) + (m - m_ref))), MAX_GAIN)` for a
-/// pixel at depth `d` of an image whose mean depth is `m`, rendered in the water of a reference
-/// whose mean depth is `m_ref`.
-fn depth_factor(beta: f32, d: f32, m: f32, m_ref: f32, local: f32) -> f32 {
-    (-beta * (local * (d - m) + (m - m_ref)))
+/// Depth factor `min(exp(-beta (local (d - m) + gain (m - m_ref))), MAX_GAIN)` for a pixel at
+/// map depth `d` of an image whose mean map depth is `m`, rendered in the water of a reference
+/// whose subject is at map depth `m_ref`; `beta` per unit of normalised depth, `gain` normalised
+/// units per map unit, `local` the trusted share of that within the image.
+fn depth_factor(beta: f32, d: f32, m: f32, m_ref: f32, local: f32, gain: f32) -> f32 {
+    (-beta * (local * (d - m) + gain * (m - m_ref)))
         .exp()
         .min(MAX_GAIN)
 }
@@ -522,28 +670,33 @@ fn mean_depth(d: &[f32]) -> f32 {
 }
 
 /// The anchored variant's output stage on one image (module doc): `raw` is the network's
-/// 6-plane output, `anchor` the colour transfer, `depth` the 1-plane depth map, all one size.
-/// `reference_depth` is the reference's mean depth ([`REFERENCE_DEPTH`] for an absolute map);
-/// `None` takes it to be the image's own (a relative map). `raw` and `anchor` are taken and
-/// reused (the output is written over the anchor), so a large photo holds no extra copies.
+/// 6-plane output, `anchor` the colour transfer, `depth` the 1-plane depth map, all one size;
+/// `response` says what the map's values stand for and how far its differences are trusted.
+/// `raw` and `anchor` are taken and reused (the output is written over the anchor), so a large
+/// photo holds no extra copies.
 pub fn finish(
     raw: Image,
     anchor: Image,
     depth: &Image,
     water: &Water,
-    reference_depth: Option<f32>,
+    response: &DepthResponse,
 ) -> Result<Image> {
+    response.validate()?;
+    let gain = response.scale.unit_gain();
     finish_with(
         raw,
         anchor,
         depth,
         water,
-        reference_depth,
-        LOCAL_DEPTH_STRENGTH,
+        response.scale.reference_depth(),
+        response.trust * gain,
+        gain,
     )
 }
 
-/// [`finish`] with the within-image strength `local` given (measurements of other settings).
+/// [`finish`] in normalised units: the reference at `reference_depth` (`None`: the image's
+/// mean), the within-image strength `local`, and `gain` scaling the image's mean's offset from
+/// the reference (1 for an absolute map).
 pub fn finish_with(
     raw: Image,
     anchor: Image,
@@ -551,6 +704,7 @@ pub fn finish_with(
     water: &Water,
     reference_depth: Option<f32>,
     local: f32,
+    gain: f32,
 ) -> Result<Image> {
     let (w, h) = anchor.size();
     if raw.size() != (w, h) || depth.size() != (w, h) {
@@ -573,7 +727,7 @@ pub fn finish_with(
         let (veil, beta) = (water.veil[c], water.beta[c]);
         for (i, v) in out.plane_mut(c).iter_mut().enumerate() {
             let n = *v * (1.0 + g[i]) + o[i];
-            *v = veil + (n - veil) * depth_factor(beta, d[i], m, reference_depth, local);
+            *v = veil + (n - veil) * depth_factor(beta, d[i], m, reference_depth, local, gain);
         }
     }
     out.clamp01();
@@ -621,16 +775,138 @@ mod tests {
     #[test]
     fn depth_factor_is_one_at_the_reference_depth_and_falls() {
         let r = REFERENCE_DEPTH;
-        let f = |beta, d| depth_factor(beta, d, d, r, LOCAL_DEPTH_STRENGTH);
+        let f = |beta, d| depth_factor(beta, d, d, r, LOCAL_DEPTH_STRENGTH, 1.0);
         assert!((f(2.0, r) - 1.0).abs() < 1e-6);
         assert!(f(2.0, 1.0) < f(2.0, 0.75));
         assert_eq!(f(20.0, 0.0), MAX_GAIN);
         // No attenuation: no response.
         assert_eq!(f(0.0, 1.0), 1.0);
         // Within an image, farther pixels are hazier, less so than a farther image.
-        let local = |d| depth_factor(2.0, d, 0.5, r, LOCAL_DEPTH_STRENGTH);
+        let local = |d| depth_factor(2.0, d, 0.5, r, LOCAL_DEPTH_STRENGTH, 1.0);
         assert!(local(0.8) < local(0.2));
         assert!(local(0.8) > f(2.0, 0.8));
+    }
+
+    #[test]
+    fn the_prior_renders_as_the_bundled_model_was_trained() {
+        let r = DepthResponse::default();
+        let local = r.trust * r.scale.unit_gain();
+        assert!((local - LOCAL_DEPTH_STRENGTH).abs() < 1e-7, "{local}");
+    }
+
+    /// A water whose channels attenuate at three rates.
+    fn test_water() -> Water {
+        Water {
+            stats: ChannelStats {
+                mean: [0.0; 3],
+                std: [1.0; 3],
+            },
+            veil: [0.1, 0.5, 0.6],
+            beta: [3.0, 1.0, 0.5],
+            detail: None,
+        }
+    }
+
+    /// The anchored stage with the network's correction at zero on a striped clean image, the
+    /// depth running from 0 at the top to 1 at the bottom; the mean distance to the veil and the
+    /// contrast of each row band.
+    fn bands(response: &DepthResponse) -> Vec<(f32, f32)> {
+        let (w, h) = (8, 40);
+        let water = test_water();
+        let anchor: Vec<f32> = (0..3)
+            .flat_map(|_| (0..w * h).map(|i| if i % 2 == 0 { 0.9 } else { 0.2 }))
+            .collect();
+        let anchor = Image::from_planar(w, h, 3, anchor).unwrap();
+        let depth: Vec<f32> = (0..w * h)
+            .map(|i| (i / w) as f32 / (h - 1) as f32)
+            .collect();
+        let depth = Image::from_planar(w, h, 1, depth).unwrap();
+        let raw = Image::filled(w, h, 6, 0.0);
+        let out = finish(raw, anchor, &depth, &water, response).unwrap();
+        (0..h / 8)
+            .map(|band| {
+                let rows = band * 8..band * 8 + 8;
+                let px: Vec<usize> = rows.flat_map(|y| (0..w).map(move |x| y * w + x)).collect();
+                let dist = px
+                    .iter()
+                    .map(|&i| {
+                        (0..3)
+                            .map(|c| (out.plane(c)[i] - water.veil[c]).abs())
+                            .sum::<f32>()
+                    })
+                    .sum::<f32>()
+                    / px.len() as f32;
+                let lum: Vec<f32> = px.iter().map(|&i| out.plane(1)[i]).collect();
+                let (hi, lo) = lum
+                    .iter()
+                    .fold((0.0f32, 1.0f32), |(a, b), &v| (a.max(v), b.min(v)));
+                (dist, hi - lo)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn farther_is_hazier_and_nearer_to_the_veil_with_a_trusted_map() {
+        for response in [
+            DepthResponse {
+                scale: DepthScale::Metric { max_m: 6.0 },
+                trust: 1.0,
+            },
+            DepthResponse {
+                scale: DepthScale::Relative { scene_m: 4.0 },
+                trust: 1.0,
+            },
+            DepthResponse::default(),
+        ] {
+            let b = bands(&response);
+            for k in 1..b.len() {
+                assert!(b[k].0 < b[k - 1].0, "{response:?}: {b:?}");
+                assert!(b[k].1 <= b[k - 1].1, "{response:?}: {b:?}");
+            }
+        }
+        // The trusted map acts far more than the prior.
+        let spread = |r: &DepthResponse| {
+            let b = bands(r);
+            b[b.len() - 1].1 / b[0].1
+        };
+        let trusted = spread(&DepthResponse {
+            scale: DepthScale::Relative { scene_m: 4.0 },
+            trust: 1.0,
+        });
+        let prior = spread(&DepthResponse::default());
+        assert!(trusted < 0.8 && prior > 0.9, "{trusted} {prior}");
+    }
+
+    #[test]
+    fn a_metric_scene_at_the_reference_distance_is_left_as_rendered() {
+        let water = test_water();
+        let a = Image::filled(4, 4, 3, 0.8);
+        let raw = Image::filled(4, 4, 6, 0.0);
+        // A flat scene exactly REFERENCE_DISTANCE_M away: the factor is 1.
+        let depth = Image::filled(4, 4, 1, 0.5);
+        let response = DepthResponse {
+            scale: DepthScale::Metric {
+                max_m: 2.0 * REFERENCE_DISTANCE_M,
+            },
+            trust: 1.0,
+        };
+        let out = finish(raw.clone(), a.clone(), &depth, &water, &response).unwrap();
+        assert!(out.data().iter().all(|&v| (v - 0.8).abs() < 1e-6));
+        // Twice as far: t(2 z_ref) / t(z_ref) = exp(-beta_m z_ref) per channel.
+        let far = Image::filled(4, 4, 1, 1.0);
+        let out = finish(raw, a, &far, &water, &response).unwrap();
+        let beta_m = water.beta_per_metre();
+        for c in 0..3 {
+            let f = (-beta_m[c] * REFERENCE_DISTANCE_M).exp();
+            let want = water.veil[c] + (0.8 - water.veil[c]) * f;
+            assert!((out.plane(c)[0] - want).abs() < 1e-5, "{c}");
+        }
+        // Bad numbers are refused.
+        let bad = DepthResponse {
+            scale: DepthScale::Relative { scene_m: -1.0 },
+            trust: 1.0,
+        };
+        assert!(bad.validate().is_err());
     }
 
     #[test]

@@ -206,6 +206,7 @@ fn folder_depth(
         path: dir,
         invert: false,
         normalize: false,
+        unit: uwnr_depth::DepthUnit::Relative,
     };
     Ok(Some(source.prepare_with_limits(opts.limits)?))
 }

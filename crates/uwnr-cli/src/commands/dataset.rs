@@ -71,7 +71,12 @@ fn make(a: &DatasetMakeArgs) -> Result<ExitCode> {
         size: a.size,
         save_depth: a.save_depth,
         save_lightfield: a.save_lightfield,
-        depth: super::depth_source(&a.depth),
+        depth: super::depth_source(&a.depth)?,
+        depth_policy: super::depth_policy(
+            &a.depth,
+            a.baseline.depth_scale,
+            uwnr_dataset::DepthPolicy::default(),
+        ),
     };
     let jobs = a.jobs.unwrap_or_else(|| {
         std::thread::available_parallelism()

@@ -10,7 +10,10 @@ use crate::cli::DepthArgs;
 pub fn run(a: &DepthArgs) -> Result<ExitCode> {
     let clean = load_rgb(&a.clean, &DecodeLimits::default())
         .with_context(|| format!("reading clean image {}", a.clean.display()))?;
-    let source = super::depth_source(&a.depth);
+    if a.depth.prior_trust.is_some() {
+        anyhow::bail!("--prior-trust does not apply to `uwnr depth` (it sets how renders respond)");
+    }
+    let source = super::depth_source(&a.depth)?;
     let prepared = source.prepare().context("preparing the depth source")?;
     let depth = prepared
         .depth_for(&clean, Some(&a.clean))

@@ -159,7 +159,12 @@ fn downstream(a: &DownstreamArgs) -> Result<ExitCode> {
         per_image: a.per_image,
         size: a.size,
         seed: a.seed,
-        depth: super::depth_source(&a.depth),
+        depth: super::depth_source(&a.depth)?,
+        depth_policy: super::depth_policy(
+            &a.depth,
+            a.baseline.depth_scale,
+            uwnr_dataset::DepthPolicy::default(),
+        ),
         train,
         budget: a.budget,
         eval_max_side: (a.eval_max_side > 0).then_some(a.eval_max_side),

@@ -19,7 +19,7 @@ pub fn refuse_inapplicable(
     o: &BaselineOpts,
     have_reference: bool,
 ) -> Result<()> {
-    use MethodArg::{Jerlov, Reinhard, Seathru, Uisa};
+    use MethodArg::{Jerlov, Reinhard, Seathru, Uisa, Uwnr};
     let seathru_given = o.seathru == Some(SeathruSource::Given);
     // Sea-thru takes its coefficients from the reference when one is given, unless told.
     let seathru_fitted = match o.seathru {
@@ -35,7 +35,11 @@ pub fn refuse_inapplicable(
             &[Jerlov, Uisa, Seathru, Reinhard],
         ),
         ("--water-type", o.water_type.is_some(), &[Jerlov]),
-        ("--depth-scale", o.depth_scale.is_some(), &[Jerlov, Seathru]),
+        (
+            "--depth-scale",
+            o.depth_scale.is_some(),
+            &[Uwnr, Jerlov, Seathru],
+        ),
         ("--seathru", o.seathru.is_some(), &[Seathru]),
         ("--beta-d", o.beta_d.is_some(), &[Seathru]),
         ("--beta-b", o.beta_b.is_some(), &[Seathru]),
@@ -63,6 +67,7 @@ pub fn refuse_inapplicable(
     if o.depth_scale.is_some()
         && methods.contains(&Seathru)
         && !methods.contains(&Jerlov)
+        && !methods.contains(&Uwnr)
         && seathru_fitted
     {
         bail!(

@@ -152,8 +152,18 @@ pub fn gan_renderer(
 }
 
 /// The depth source chosen by the depth options.
-pub fn depth_source(o: &DepthOpts) -> DepthSource {
-    if let Some(model) = &o.depth_model {
+pub fn depth_source(o: &DepthOpts) -> Result<DepthSource> {
+    let unit = o.depth_unit.unwrap_or_default();
+    if unit.is_metric() && o.depth_invert {
+        bail!("--depth-invert does not apply to a metric --depth-unit (its values are distances)");
+    }
+    if unit.is_metric() && o.depth_normalize {
+        bail!(
+            "--depth-normalize does not apply to a metric --depth-unit (it would drop the metres; \
+             use --depth-unit relative to normalise)"
+        );
+    }
+    Ok(if let Some(model) = &o.depth_model {
         DepthSource::Onnx {
             model: model.clone(),
             invert: o.depth_invert,
@@ -164,9 +174,40 @@ pub fn depth_source(o: &DepthOpts) -> DepthSource {
             path: path.clone(),
             invert: o.depth_invert,
             normalize: o.depth_normalize,
+            unit,
         }
     } else {
         DepthSource::Builtin
+    })
+}
+
+/// How depth is read and trusted: `--depth-unit` for maps found beside the clean images,
+/// `--depth-scale` for the scene scale of relative maps (uwnr), `--prior-trust`, each with the
+/// command's default (`dataset`: [`uwnr_dataset::DepthPolicy::default`]; `render`:
+/// [`render_policy`]).
+pub fn depth_policy(
+    o: &DepthOpts,
+    scale: Option<(f64, f64)>,
+    defaults: uwnr_dataset::DepthPolicy,
+) -> uwnr_dataset::DepthPolicy {
+    uwnr_dataset::DepthPolicy {
+        unit: o.depth_unit.unwrap_or(defaults.unit),
+        scene_scale_m: scale.map_or(defaults.scene_scale_m, |(a, b)| (a as f32, b as f32)),
+        prior_trust: o.prior_trust.unwrap_or(defaults.prior_trust),
+        ..defaults
+    }
+}
+
+/// `uwnr render`'s defaults: the scene scale and the trust in the prior that the bundled model
+/// renders with (`uwnr_model::style`), no maps looked for beside the images.
+#[must_use]
+pub fn render_policy() -> uwnr_dataset::DepthPolicy {
+    let s = uwnr_model::style::DEFAULT_SCENE_SCALE_M;
+    uwnr_dataset::DepthPolicy {
+        beside: false,
+        unit: uwnr_depth::DepthUnit::Relative,
+        scene_scale_m: (s, s),
+        prior_trust: uwnr_model::style::PRIOR_TRUST,
     }
 }
 

@@ -21,6 +21,8 @@ enum Renderer {
     Network {
         network: Box<Network>,
         opts: RenderOptions,
+        /// Seeds the scene scale drawn per image when `--depth-scale` is a range.
+        seed: u64,
     },
     /// The GAN baseline: the water code of job `index` is drawn from `item_seed(seed, index)`.
     Gan {
@@ -119,12 +121,18 @@ pub fn run(a: &RenderArgs) -> Result<ExitCode> {
                     overlap: a.model.overlap,
                     ..Default::default()
                 },
+                seed: a.seed,
             }
         }
     };
-    let prepared = super::depth_source(&a.depth)
+    let prepared = super::depth_source(&a.depth)?
         .prepare()
         .context("preparing the depth source")?;
+    if a.depth.prior_trust.is_some() && a.method != MethodArg::Uwnr {
+        bail!("--prior-trust applies to --method uwnr only");
+    }
+    let policy = super::depth_policy(&a.depth, a.baseline.depth_scale, super::render_policy());
+    policy.validate()?;
 
     let limits = DecodeLimits::default();
     // Each reference is decoded (and its light field computed) once, then reused by every
@@ -148,6 +156,7 @@ pub fn run(a: &RenderArgs) -> Result<ExitCode> {
                 r,
                 &job.output,
                 &prepared,
+                &policy,
                 &renderer,
                 index,
                 &limits,
@@ -190,6 +199,7 @@ fn render_one(
     reference: Option<&RefInput>,
     output: &Path,
     depth: &uwnr_depth::PreparedDepth,
+    policy: &uwnr_dataset::DepthPolicy,
     renderer: &Renderer,
     index: usize,
     limits: &DecodeLimits,
@@ -201,9 +211,14 @@ fn render_one(
         batch.note(&format!("note: {}: {n}", clean_path.display()));
     }
     let out = match (renderer, reference) {
-        (Renderer::Network { network, opts }, Some(RefInput::Style(style))) => {
+        (Renderer::Network { network, opts, .. }, Some(RefInput::Style(style))) => {
+            // The scene scale of a range is drawn per image, as the baselines draw theirs.
+            let seed = match renderer {
+                Renderer::Network { seed, .. } => uwnr_baselines::item_seed(*seed, index),
+                _ => 0,
+            };
             let opts = RenderOptions {
-                relative_depth: depth.relative,
+                depth: policy.response(&depth, seed),
                 ..*opts
             };
             network

@@ -578,3 +578,100 @@ fn bf16_precision_renders_on_the_engine_and_is_refused_elsewhere() {
     assert_eq!(err.trim().lines().count(), 1, "one line: {err}");
     assert!(!out.exists());
 }
+
+#[test]
+fn depth_units_and_trust_are_checked_and_metric_maps_render() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out.png");
+    let clean = sample("clean-room.jpg");
+    let (w, h) = image::image_dimensions(&clean).unwrap();
+    // 16-bit millimetres, 1 m at the bottom to 5 m at the top, with a hole.
+    let mm = image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_fn(w, h, |x, y| {
+        if x == 0 && y == 0 {
+            image::Luma([0])
+        } else {
+            image::Luma([(5000 - 4000 * y / (h - 1)) as u16])
+        }
+    });
+    let map = dir.path().join("mm.png");
+    mm.save(&map).unwrap();
+    // The same in float metres, as NumPy saves it.
+    let npy = dir.path().join("m.npy");
+    let mut bytes = b"\x93NUMPY\x01\x00".to_vec();
+    let mut header = format!("{{'descr': '<f4', 'fortran_order': False, 'shape': ({h}, {w}), }}");
+    while (10 + header.len() + 1) % 64 != 0 {
+        header.push(' ');
+    }
+    header.push('\n');
+    bytes.extend((header.len() as u16).to_le_bytes());
+    bytes.extend(header.as_bytes());
+    for y in 0..h {
+        for _ in 0..w {
+            bytes.extend((5.0 - 4.0 * y as f32 / (h - 1) as f32).to_le_bytes());
+        }
+    }
+    std::fs::write(&npy, bytes).unwrap();
+    let (reference, wts) = (sample("ref-blue.jpg"), weights());
+    let run = |extra: &[&str]| {
+        let mut args = vec![
+            "render",
+            s(&clean),
+            "--reference",
+            s(&reference),
+            "--weights",
+            s(&wts),
+            "--output",
+            s(&out),
+        ];
+        args.extend_from_slice(extra);
+        uwnr(&args)
+    };
+    let refused: [(&[&str], &str); 5] = [
+        (
+            &[
+                "--depth",
+                s(&map),
+                "--depth-unit",
+                "mm",
+                "--depth-normalize",
+            ],
+            "--depth-normalize",
+        ),
+        (
+            &["--depth", s(&map), "--depth-unit", "mm", "--depth-invert"],
+            "--depth-invert",
+        ),
+        (&["--depth-unit", "furlongs"], "furlongs"),
+        (&["--prior-trust", "9"], "trust"),
+        (
+            &["--method", "reinhard", "--prior-trust", "0.5"],
+            "--prior-trust",
+        ),
+    ];
+    for (extra, what) in refused {
+        let o = run(extra);
+        let err = stderr(&o);
+        assert!(!o.status.success(), "{extra:?} was accepted");
+        assert!(err.contains(what), "{extra:?}: {err}");
+        assert!(!out.exists(), "{extra:?} rendered");
+    }
+    for extra in [
+        &["--depth", s(&map), "--depth-unit", "mm"][..],
+        &["--depth", s(&npy), "--depth-unit", "m"],
+        &["--depth-scale", "2,6", "--prior-trust", "1"],
+    ] {
+        let o = run(extra);
+        assert!(o.status.success(), "{extra:?}: {}", stderr(&o));
+        assert_eq!(image::image_dimensions(&out).unwrap(), (w, h));
+        std::fs::remove_file(&out).unwrap();
+    }
+    // A map with no measured depth is one clear line.
+    let empty = dir.path().join("empty.png");
+    image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::new(8, 8)
+        .save(&empty)
+        .unwrap();
+    let o = run(&["--depth", s(&empty), "--depth-unit", "mm"]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("no measured depth"), "{}", stderr(&o));
+    assert!(!out.exists());
+}

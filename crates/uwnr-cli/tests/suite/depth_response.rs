@@ -11,8 +11,8 @@ use uwnr_baselines::{BackgroundPick, quadtree_background};
 use uwnr_core::Image;
 use uwnr_core::io::{DecodeLimits, load_rgb};
 use uwnr_core::resize::resize_bilinear;
-use uwnr_depth::DepthSource;
-use uwnr_model::{Backend, Network, RenderOptions};
+use uwnr_depth::{Depth, DepthUnit};
+use uwnr_model::{Backend, DepthResponse, Network, RenderOptions};
 
 /// Smallest mean change between depth 0 and depth 1, in code values.
 const MIN_CHANGE: f64 = 15.0;
@@ -78,7 +78,7 @@ fn check_constant_depths(net: &Network, clean: &Image, reference: &Image, what: 
     let (w, h) = clean.size();
     // Constant maps are absolute depths (a scene that far away), not relative ones.
     let absolute = RenderOptions {
-        relative_depth: false,
+        depth: uwnr_model::DepthResponse::absolute(),
         ..Default::default()
     };
     let renders: Vec<Image> = DEPTHS
@@ -131,6 +131,10 @@ fn rgbd_dir() -> PathBuf {
     root().join("../shared/data/rgbd")
 }
 
+/// Largest median depth effect (`uwnr_metrics::depth_effect`) allowed with measured depth:
+/// inside the physical baselines' range (0.56-0.76 in `examples/depth_effect.rs`).
+const MAX_DEPTH_EFFECT: f64 = 0.8;
+
 #[test]
 fn with_real_depth_far_parts_are_hazier_than_near_ones() {
     let dir = rgbd_dir();
@@ -139,51 +143,71 @@ fn with_real_depth_far_parts_are_hazier_than_near_ones() {
         return;
     }
     let net = bundled();
-    let reference = load_rgb(&sample("ref-green.png"), &DecodeLimits::default()).unwrap();
-    let style = net.style(&reference).unwrap();
-    let veil = quadtree_background(&reference, 0.01, BackgroundPick::Mean).unwrap();
+    let limits = DecodeLimits::default();
     let cases = [
         ("nyu/rgb/rgb_00000.jpg", "nyu/depth/sync_depth_00000.png"),
         ("nyu/rgb/rgb_00050.jpg", "nyu/depth/sync_depth_00050.png"),
         ("nyu/rgb/rgb_00100.jpg", "nyu/depth/sync_depth_00100.png"),
     ];
-    for (rgb, depth) in cases {
-        let clean = small(&dir.join(rgb), 192);
-        let source = DepthSource::Maps {
-            path: dir.join(depth),
-            invert: false,
-            normalize: true,
-        };
-        let d = source
-            .prepare()
-            .unwrap()
-            .depth_for(&clean, None)
-            .unwrap()
-            .map;
-        let (w, h) = clean.size();
-        let real = net
-            .render(&clean, &d, &style, &RenderOptions::default())
-            .unwrap();
-        let mid = net
-            .render(
-                &clean,
-                &Image::filled(w, h, 1, 0.5),
-                &style,
-                &RenderOptions::default(),
+    let mut effects = Vec::new();
+    for reference in ["ref-green.png", "ref-blue.jpg"] {
+        let reference = load_rgb(&sample(reference), &limits).unwrap();
+        let style = net.style(&reference).unwrap();
+        let veil = quadtree_background(&reference, 0.01, BackgroundPick::Mean).unwrap();
+        for (rgb, depth) in cases {
+            let clean = small(&dir.join(rgb), 256);
+            // NYU stores millimetres: the scene's metres act, fully trusted.
+            let d = Depth::from_file(
+                &dir.join(depth),
+                clean.size(),
+                DepthUnit::Millimetres,
+                &limits,
             )
             .unwrap();
-        let dv = d.plane(0);
-        let (far, near) = (|i: usize| dv[i] > 0.7, |i: usize| dv[i] < 0.3);
-        // Relative to the same scene at the middle depth: far parts move towards the veil,
-        // near parts away from it.
-        let far_shift = distance_to(&real, veil, far) - distance_to(&mid, veil, far);
-        let near_shift = distance_to(&real, veil, near) - distance_to(&mid, veil, near);
-        eprintln!("{rgb}: far {far_shift:+.4}, near {near_shift:+.4}");
-        assert!(far_shift < 0.0, "{rgb}: far parts not hazier ({far_shift})");
-        assert!(
-            near_shift > 0.0,
-            "{rgb}: near parts not clearer ({near_shift})"
-        );
-        check_constant_depths(&net, &clean, &reference, rgb);
+            let response = DepthResponse::for_depth(&d, 4.0, 0.0);
+            assert_eq!(response.trust, 1.0, "a measured map is trusted");
+            let opts = RenderOptions {
+                depth: response,
+                ..Default::default()
+            };
+            let real = net.render(&clean, &d.map, &style, &opts).unwrap();
+            // The same scene with every pixel at the map's mean distance.
+            let dv = d.map.plane(0);
+            let mean = dv.iter().sum::<f32>() / dv.len() as f32;
+            let (w, h) = clean.size();
+            let flat = Image::filled(w, h, 1, mean);
+            let still = net.render(&clean, &flat, &style, &opts).unwrap();
+            let effect = uwnr_metrics::depth_effect(&clean, &real, &still, &d.map)
+                .unwrap()
+                .expect("measurable");
+            // Relative to the scene at its mean depth: far parts move towards the veil, near
+            // parts away from it.
+            let (far, near) = (|i: usize| dv[i] > mean * 1.2, |i: usize| dv[i] < mean * 0.8);
+            let far_shift = distance_to(&real, veil, far) - distance_to(&still, veil, far);
+            let near_shift = distance_to(&real, veil, near) - distance_to(&still, veil, near);
+            eprintln!(
+                "{rgb}: depth effect {effect:.3}, far {far_shift:+.4}, near {near_shift:+.4}"
+            );
+            assert!(far_shift < 0.0, "{rgb}: far parts not hazier ({far_shift})");
+            assert!(
+                near_shift > 0.0,
+                "{rgb}: near parts not clearer ({near_shift})"
+            );
+            effects.push(effect);
+        }
     }
+    effects.sort_by(f64::total_cmp);
+    let median = effects[effects.len() / 2];
+    assert!(
+        median <= MAX_DEPTH_EFFECT,
+        "median depth effect {median:.3} > {MAX_DEPTH_EFFECT}: {effects:?}"
+    );
+    // Constant maps still act as a scene that far away.
+    let reference = load_rgb(&sample("ref-green.png"), &limits).unwrap();
+    check_constant_depths(
+        &net,
+        &small(&dir.join(cases[0].0), 192),
+        &reference,
+        cases[0].0,
+    );
 }

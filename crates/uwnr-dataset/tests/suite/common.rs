@@ -66,6 +66,7 @@ pub fn spec(clean: &Path, refs: &Path, k: usize) -> Spec {
         save_depth: true,
         save_lightfield: true,
         depth: DepthSource::Builtin,
+        depth_policy: uwnr_dataset::DepthPolicy::default(),
     }
 }
 

@@ -3,6 +3,7 @@
 //! exercised end to end by the CLI tests.
 
 mod common;
+mod depth;
 mod generate;
 mod shards;
 mod verify;

@@ -28,6 +28,7 @@ fn maps(path: &Path, invert: bool, normalize: bool) -> DepthSource {
         path: path.to_path_buf(),
         invert,
         normalize,
+        unit: uwnr_depth::DepthUnit::Relative,
     }
 }
 

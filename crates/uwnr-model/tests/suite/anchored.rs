@@ -41,7 +41,14 @@ fn the_output_stage_in_burn_matches_the_plain_one() {
     let clean = image(w, h, 3, 1.0, 0.0);
     let a = colour_transfer(&clean, &water).unwrap();
     let depth = image(w, h, 1, 0.2, 3.0);
-    let want = finish(raw.clone(), a.clone(), &depth, &water, None).unwrap();
+    let want = finish(
+        raw.clone(),
+        a.clone(),
+        &depth,
+        &water,
+        &uwnr_model::DepthResponse::default(),
+    )
+    .unwrap();
     let t = |img: &Image| {
         Tensor::<4>::from_data(
             TensorData::new(img.data().to_vec(), [1, img.channels(), h, w]),
@@ -120,7 +127,7 @@ fn a_fresh_anchored_model_is_the_colour_transfer_at_the_reference_depth() {
             &constant(48, 32, REFERENCE_DEPTH),
             &style,
             &RenderOptions {
-                relative_depth: false,
+                depth: uwnr_model::DepthResponse::absolute(),
                 ..Default::default()
             },
         )
@@ -160,7 +167,7 @@ fn a_relative_map_responds_only_within_the_image() {
     let style = ReferenceStyle::new(&reference(64, 48), &config).unwrap();
     let clean = image(48, 32, 3, 1.0, 0.5);
     let opts = RenderOptions::default();
-    assert!(opts.relative_depth);
+    assert_eq!(opts.depth, uwnr_model::DepthResponse::default());
     let near = net
         .render(&clean, &constant(48, 32, 0.0), &style, &opts)
         .unwrap();
@@ -180,7 +187,7 @@ fn farther_is_hazier_and_closer_to_the_veiling_light_whatever_the_weights() {
     let (w, h) = (48, 32);
     let clean = image(w, h, 3, 1.0, 0.5);
     let absolute = RenderOptions {
-        relative_depth: false,
+        depth: uwnr_model::DepthResponse::absolute(),
         ..Default::default()
     };
     let renders: Vec<Image> = [0.0, 0.25, 0.5, 0.75, 1.0]
@@ -331,7 +338,7 @@ fn a_fresh_detail_retaining_model_renders_its_anchor() {
     let style = ReferenceStyle::new(&reference, &config).unwrap();
     let clean = image(48, 32, 3, 1.0, 0.5);
     let absolute = RenderOptions {
-        relative_depth: false,
+        depth: uwnr_model::DepthResponse::absolute(),
         ..Default::default()
     };
     let out = net
