@@ -12,6 +12,9 @@ use crate::error::{DepthError, Result};
 /// The magic string that opens every `.npy` file.
 const MAGIC: &[u8] = b"\x93NUMPY";
 
+/// Reads one little-endian sample.
+type ReadSample = fn(&[u8]) -> f32;
+
 /// Whether `path` ends in `.npy` (any case).
 #[must_use]
 pub fn is_npy_path(path: &Path) -> bool {
@@ -74,7 +77,7 @@ pub(crate) fn parse_npy(
     }
     let n = w * h;
     let data = &bytes[start + header_len..];
-    let (size, max_code, read): (usize, f32, fn(&[u8]) -> f32) = match descr {
+    let (size, max_code, read): (usize, f32, ReadSample) = match descr {
         "<f4" => (4, 1.0, |b| f32::from_le_bytes([b[0], b[1], b[2], b[3]])),
         "<f8" => (8, 1.0, |b| {
             f64::from_le_bytes([b[0], b[1], b[2], b[3], b[4], b[5], b[6], b[7]]) as f32

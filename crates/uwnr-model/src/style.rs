@@ -897,8 +897,8 @@ mod tests {
         let far = Image::filled(4, 4, 1, 1.0);
         let out = finish(raw, a, &far, &water, &response).unwrap();
         let beta_m = water.beta_per_metre();
-        for c in 0..3 {
-            let f = (-beta_m[c] * REFERENCE_DISTANCE_M).exp();
+        for (c, b) in beta_m.iter().enumerate() {
+            let f = (-b * REFERENCE_DISTANCE_M).exp();
             let want = water.veil[c] + (0.8 - water.veil[c]) * f;
             assert!((out.plane(c)[0] - want).abs() < 1e-5, "{c}");
         }
