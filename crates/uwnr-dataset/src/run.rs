@@ -303,7 +303,7 @@ pub fn generate(
     if with_maps > 0 {
         observer(Event::Note(&format!(
             "{with_maps} of {} clean images have a depth map beside them (depth/ next to rgb/), \
-             read as {:?}",
+             read as {}",
             cleans.len(),
             spec.depth_policy.unit
         )));

@@ -50,6 +50,18 @@ pub enum DepthUnit {
     CodesPerMetre(u32),
 }
 
+impl std::fmt::Display for DepthUnit {
+    /// As `--depth-unit` spells it.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Relative => f.write_str("relative"),
+            Self::Millimetres => f.write_str("mm"),
+            Self::Metres => f.write_str("m"),
+            Self::CodesPerMetre(n) => write!(f, "{n} codes per metre"),
+        }
+    }
+}
+
 impl DepthUnit {
     /// Metres per stored value; `None` for [`DepthUnit::Relative`].
     #[must_use]
@@ -520,5 +532,6 @@ mod tests {
             Some(1.0 / 256.0)
         );
         assert_eq!(DepthUnit::Metres.metres_per_code(), Some(1.0));
+        assert_eq!(DepthUnit::Millimetres.to_string(), "mm");
     }
 }
