@@ -501,13 +501,7 @@ fn given_depth(
 /// The network's depth options (`scene_scale`: metres, or `[min, max]` drawn per image;
 /// `prior_trust`), over `uwnr render`'s defaults; any other key is an error.
 fn network_policy(options: &Value) -> Result<DepthPolicy, Failure> {
-    let s = uwnr_model::style::DEFAULT_SCENE_SCALE_M;
-    let mut policy = DepthPolicy {
-        beside: false,
-        unit: uwnr_depth::DepthUnit::Relative,
-        scene_scale_m: (s, s),
-        prior_trust: uwnr_model::style::PRIOR_TRUST,
-    };
+    let mut policy = DepthPolicy::render();
     let Value::Object(m) = options else {
         return Err(Failure::Value("method options must be a mapping".into()));
     };

@@ -62,6 +62,19 @@ impl Default for DepthPolicy {
 const SCALE_SALT: u64 = 0x5CE7_E5CA_1E00_0001;
 
 impl DepthPolicy {
+    /// `uwnr render`'s defaults: the scene scale and the trust in the prior that the bundled
+    /// model renders with (`uwnr_model::style`), no maps looked for beside the images.
+    #[must_use]
+    pub fn render() -> Self {
+        let s = uwnr_model::style::DEFAULT_SCENE_SCALE_M;
+        Self {
+            beside: false,
+            unit: DepthUnit::Relative,
+            scene_scale_m: (s, s),
+            prior_trust: uwnr_model::style::PRIOR_TRUST,
+        }
+    }
+
     /// Checks the numbers.
     pub fn validate(&self) -> Result<()> {
         let (lo, hi) = self.scene_scale_m;

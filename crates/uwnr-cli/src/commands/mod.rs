@@ -184,7 +184,7 @@ pub fn depth_source(o: &DepthOpts) -> Result<DepthSource> {
 /// How depth is read and trusted: `--depth-unit` for maps found beside the clean images,
 /// `--depth-scale` for the scene scale of relative maps (uwnr), `--prior-trust`, each with the
 /// command's default (`dataset`: [`uwnr_dataset::DepthPolicy::default`]; `render`:
-/// [`render_policy`]).
+/// [`uwnr_dataset::DepthPolicy::render`]).
 pub fn depth_policy(
     o: &DepthOpts,
     scale: Option<(f64, f64)>,
@@ -195,19 +195,6 @@ pub fn depth_policy(
         scene_scale_m: scale.map_or(defaults.scene_scale_m, |(a, b)| (a as f32, b as f32)),
         prior_trust: o.prior_trust.unwrap_or(defaults.prior_trust),
         ..defaults
-    }
-}
-
-/// `uwnr render`'s defaults: the scene scale and the trust in the prior that the bundled model
-/// renders with (`uwnr_model::style`), no maps looked for beside the images.
-#[must_use]
-pub fn render_policy() -> uwnr_dataset::DepthPolicy {
-    let s = uwnr_model::style::DEFAULT_SCENE_SCALE_M;
-    uwnr_dataset::DepthPolicy {
-        beside: false,
-        unit: uwnr_depth::DepthUnit::Relative,
-        scene_scale_m: (s, s),
-        prior_trust: uwnr_model::style::PRIOR_TRUST,
     }
 }
 

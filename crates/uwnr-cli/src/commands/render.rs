@@ -131,7 +131,11 @@ pub fn run(a: &RenderArgs) -> Result<ExitCode> {
     if a.depth.prior_trust.is_some() && a.method != MethodArg::Uwnr {
         bail!("--prior-trust applies to --method uwnr only");
     }
-    let policy = super::depth_policy(&a.depth, a.baseline.depth_scale, super::render_policy());
+    let policy = super::depth_policy(
+        &a.depth,
+        a.baseline.depth_scale,
+        uwnr_dataset::DepthPolicy::render(),
+    );
     policy.validate()?;
 
     let limits = DecodeLimits::default();
