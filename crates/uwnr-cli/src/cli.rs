@@ -2,7 +2,9 @@
 
 use std::path::PathBuf;
 
+use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 use clap::{Args, Parser, Subcommand, ValueEnum};
+use uwnr_render::{ComputeDevice, MethodKind, Precision};
 
 /// Render clean photos into realistic underwater images (UWNR) and build paired datasets.
 #[derive(Debug, Parser)]
@@ -34,7 +36,7 @@ pub enum Command {
     Dataset(DatasetArgs),
     /// Experiments: `experiment downstream` trains an enhancer on each method's synthetic data
     /// and scores it on real test pairs (the paper's Table 1).
-    Experiment(crate::commands::experiment::ExperimentArgs),
+    Experiment(ExperimentArgs),
     /// The Shallow-UWnet enhancer of the downstream experiment: `enhance train` on paired
     /// folders, `enhance apply` to images, `enhance eval` on a paired test folder.
     Enhance(EnhanceArgs),
@@ -74,6 +76,25 @@ pub enum PrecisionArg {
     /// bf16 operands with f32 sums: faster on CPUs with AVX512_BF16, outputs a little off the
     /// f32 ones (engine only).
     Bf16,
+}
+
+impl From<DeviceArg> for ComputeDevice {
+    fn from(d: DeviceArg) -> Self {
+        match d {
+            DeviceArg::Engine => Self::Engine,
+            DeviceArg::Flex => Self::Flex,
+            DeviceArg::Tch => Self::Tch,
+        }
+    }
+}
+
+impl From<PrecisionArg> for Precision {
+    fn from(p: PrecisionArg) -> Self {
+        match p {
+            PrecisionArg::F32 => Self::F32,
+            PrecisionArg::Bf16 => Self::Bf16,
+        }
+    }
 }
 
 /// Where depth maps come from.
@@ -142,8 +163,8 @@ pub struct RenderArgs {
     #[arg(long, short = 'r', num_args = 1.., value_name = "REF")]
     pub reference: Vec<PathBuf>,
     /// Rendering method: the UWNR network or a physical / statistical baseline.
-    #[arg(long, value_enum, default_value_t = MethodArg::Uwnr)]
-    pub method: MethodArg,
+    #[arg(long, value_parser = method_parser(), default_value = "uwnr")]
+    pub method: MethodKind,
     #[command(flatten)]
     pub baseline: BaselineOpts,
     /// Output image file (one clean image, one reference) or output directory.
@@ -167,23 +188,13 @@ pub struct RenderArgs {
     pub precision: PrecisionArg,
 }
 
-/// Rendering methods.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum MethodArg {
-    /// The UWNR generator (neural rendering from the reference's light field).
-    Uwnr,
-    /// The UWGAN-style GAN baseline (`uwnr gan train`): water parameters predicted from the clean
-    /// image, its depth and a code drawn from --seed; no reference needed. Bundled model unless
-    /// --weights names a trained generator.
-    Uwgan,
-    /// UWCNN's synthesis with the ten Jerlov water types (no reference needed).
-    Jerlov,
-    /// Reference-based physical model in the manner of Hou et al. 2020 (SUID).
-    Uisa,
-    /// The revised (Sea-thru) image formation model.
-    Seathru,
-    /// Reinhard et al. 2001 colour transfer from the reference.
-    Reinhard,
+/// The parser of `--method` and `--methods`: the methods of `uwnr-render`, each with its one-line
+/// summary in `--help`.
+fn method_parser() -> impl TypedValueParser<Value = MethodKind> {
+    PossibleValuesParser::new(
+        MethodKind::ALL.map(|k| PossibleValue::new(k.name()).help(k.summary())),
+    )
+    .try_map(|name| name.parse::<MethodKind>())
 }
 
 /// Where Sea-thru coefficients come from.
@@ -316,6 +327,92 @@ pub struct BaselineOpts {
 }
 
 #[derive(Debug, Args)]
+pub struct ExperimentArgs {
+    #[command(subcommand)]
+    pub action: ExperimentAction,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum ExperimentAction {
+    /// Render one training set per method from the same clean images and references, train
+    /// Shallow-UWnet on each with the same budget, score each on real paired test sets, and
+    /// write OUT/results.md, OUT/results.json and OUT/examples.png (the paper's Table 1).
+    Downstream(Box<DownstreamArgs>),
+}
+
+#[derive(Debug, Args)]
+pub struct DownstreamArgs {
+    /// Clean images: files or folders (searched recursively).
+    #[arg(long, num_args = 1.., value_name = "DIR|FILE")]
+    pub clean: Vec<PathBuf>,
+    /// Real underwater references: files or folders (searched recursively).
+    #[arg(long, num_args = 1.., value_name = "DIR|FILE")]
+    pub references: Vec<PathBuf>,
+    /// Real paired test sets (underwater/ + clean/).
+    #[arg(long, num_args = 1.., value_name = "DIR", required = true)]
+    pub test: Vec<PathBuf>,
+    /// Real paired training sets, trained on with the same budget as reference rows.
+    #[arg(long, num_args = 1.., value_name = "DIR")]
+    pub real: Vec<PathBuf>,
+    /// Output folder (run the same command again to continue).
+    #[arg(long, short = 'o', value_name = "OUT", required = true)]
+    pub out: PathBuf,
+    /// Rendering methods, one training set each.
+    #[arg(
+        long,
+        value_parser = method_parser(),
+        value_delimiter = ',',
+        default_value = "uwnr,uwgan,jerlov,uisa,seathru,reinhard"
+    )]
+    pub methods: Vec<MethodKind>,
+    /// Renders per clean image, each after a different reference.
+    #[arg(long, short = 'k', value_name = "K", default_value_t = 4)]
+    pub per_image: usize,
+    /// Size of the synthetic pairs: native or WxH (scaled to cover, centre-cropped).
+    #[arg(long, value_name = "native|WxH", default_value = "256x256")]
+    pub size: uwnr_dataset::Size,
+    /// Seed of the reference draw, the methods' parameters and training.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Training samples each network sees (the same for every training set).
+    #[arg(long, value_name = "SAMPLES", default_value_t = 6000)]
+    pub budget: usize,
+    /// Enhancer training config (JSON, see `uwnr enhance train`); epochs and learning-rate
+    /// steps are set from the budget.
+    #[arg(long, value_name = "FILE")]
+    pub enhance_config: Option<PathBuf>,
+    /// Override: enhancer crop side (default 128, or the --enhance-config file's).
+    #[arg(long)]
+    pub crop: Option<usize>,
+    /// Override: enhancer batch size.
+    #[arg(long)]
+    pub batch_size: Option<usize>,
+    /// VGG19 weights (safetensors, torchvision keys) for the enhancer's perceptual term.
+    #[arg(long, value_name = "FILE")]
+    pub vgg19: Option<PathBuf>,
+    /// Test images with a longer side above this are downscaled to it before scoring
+    /// (0 = score at native size).
+    #[arg(long, value_name = "PIXELS", default_value_t = 512)]
+    pub eval_max_side: usize,
+    /// Test images per test set shown in examples.png.
+    #[arg(long, value_name = "N", default_value_t = 2)]
+    pub examples: usize,
+    /// Rendering threads (default: the number of CPU cores).
+    #[arg(long, short = 'j', value_name = "J")]
+    pub jobs: Option<usize>,
+    #[command(flatten)]
+    pub baseline: BaselineOpts,
+    #[command(flatten)]
+    pub depth: DepthOpts,
+    #[command(flatten)]
+    pub model: ModelOpts,
+    /// GAN generator for the uwgan set (`generator.safetensors` of a `uwnr gan train` run);
+    /// default the bundled one. (--weights is the UWNR network's.)
+    #[arg(long, value_name = "FILE")]
+    pub gan_weights: Option<PathBuf>,
+}
+
+#[derive(Debug, Args)]
 #[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
 pub struct DatasetArgs {
     #[command(subcommand)]
@@ -363,8 +460,8 @@ pub struct DatasetMakeArgs {
     #[arg(long, short = 'k', value_name = "K", default_value_t = 1)]
     pub per_image: usize,
     /// Rendering method.
-    #[arg(long, value_enum, default_value_t = MethodArg::Uwnr)]
-    pub method: MethodArg,
+    #[arg(long, value_parser = method_parser(), default_value = "uwnr")]
+    pub method: MethodKind,
     #[command(flatten)]
     pub baseline: BaselineOpts,
     /// Seed of the reference draw and of the baselines' random parameters.

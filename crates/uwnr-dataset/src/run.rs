@@ -40,6 +40,7 @@ use crate::manifest::{
 };
 use crate::plan::{ReferenceOrder, Shard, Size, discover_images, pair_seed};
 use crate::renderer::{ReferenceInput, Renderer, Worker};
+use uwnr_render::Rendered;
 
 /// What to generate.
 #[derive(Clone, Debug)]
@@ -190,7 +191,9 @@ pub fn generate(
     let settings = Settings {
         format: FORMAT.into(),
         method: renderer.name().into(),
-        method_params: renderer.settings_params()?,
+        method_params: renderer
+            .settings_params()
+            .map_err(|e| DatasetError::Invalid(e.to_string()))?,
         depth_source: serde_json::to_value(&spec.depth)
             .map_err(|e| DatasetError::Invalid(format!("cannot record the depth source: {e}")))?,
         depth_policy: serde_json::to_value(spec.depth_policy)
@@ -587,7 +590,11 @@ impl Context<'_> {
                 let path = &self.refs[r];
                 let lf = load_rgb(path, self.limits)
                     .map_err(|e| e.to_string())
-                    .and_then(|img| self.renderer.reference_style(&img));
+                    .and_then(|img| {
+                        self.renderer
+                            .reference_style(&img)
+                            .map_err(|e| e.to_string())
+                    });
                 if let Err(reason) = &lf {
                     first_failure = Some(reason.clone());
                 }
@@ -628,7 +635,7 @@ impl Context<'_> {
         let (input, reference_source) = match reference {
             Some((r, lf)) => {
                 let path = &self.refs[*r];
-                let image = if worker.wants_reference_image() {
+                let image = if self.renderer.wants_reference_image() {
                     decoded = load_rgb(path, self.limits)
                         .map_err(|e| format!("reading reference {}: {e}", path.display()))?;
                     Some(&decoded)
@@ -636,15 +643,23 @@ impl Context<'_> {
                     None
                 };
                 (
-                    Some(ReferenceInput { image, style: lf }),
+                    Some(ReferenceInput {
+                        image,
+                        style: Some(lf),
+                    }),
                     Some(path.to_string_lossy().into_owned()),
                 )
             }
             None => (None, None),
         };
-        let lf = input.as_ref().map(|r| &r.style.light_field);
+        let lf = reference.map(|(_, style)| &style.light_field);
         let response = self.spec.depth_policy.response(depth, seed);
-        let (underwater, params) = worker.render(clean, &depth.map, &response, input, seed)?;
+        let Rendered {
+            image: underwater,
+            params,
+        } = worker
+            .render(clean, &depth.map, &response, input, seed)
+            .map_err(|e| e.to_string())?;
         let name = format!("{id}.png");
         let write = |dir: &str, f: &dyn Fn(&Path) -> uwnr_core::Result<()>| {
             let p = self.out.join(dir).join(&name);

@@ -6,7 +6,7 @@ use anyhow::{Context, Result};
 use uwnr_core::io::DecodeLimits;
 use uwnr_dataset::{Event, Renderer, RunOptions, Spec};
 
-use crate::cli::{DatasetAction, DatasetArgs, DatasetMakeArgs, MethodArg};
+use crate::cli::{DatasetAction, DatasetArgs, DatasetMakeArgs};
 
 /// Problems printed by `verify` before the rest are only counted.
 const MAX_LISTED_PROBLEMS: usize = 200;
@@ -49,13 +49,7 @@ pub fn run(a: &DatasetArgs) -> Result<ExitCode> {
 fn renderer(a: &DatasetMakeArgs) -> Result<Renderer> {
     let have_refs = !a.references.is_empty();
     super::method::refuse_inapplicable(&[a.method], &a.baseline, have_refs)?;
-    if let Some(method) = super::method::baseline_method(a.method, &a.baseline, have_refs)? {
-        return Ok(Renderer::Baseline(method));
-    }
-    if a.method == MethodArg::Uwgan {
-        return super::gan_renderer(&a.model, a.precision);
-    }
-    super::network_renderer_at(&a.model, a.precision)
+    super::method::renderer(a.method, &a.baseline, &a.model, a.precision, have_refs)
 }
 
 fn make(a: &DatasetMakeArgs) -> Result<ExitCode> {

@@ -1,106 +1,18 @@
 //! `uwnr experiment downstream`: the paper's Table 1 for any data (library: `uwnr_experiment`).
 
-use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::{Context, Result};
-use clap::{Args, Subcommand};
 use uwnr_core::io::DecodeLimits;
-use uwnr_dataset::Renderer;
 use uwnr_experiment::enhance::train::EnhanceTrainConfig;
 use uwnr_experiment::{DownstreamSpec, Event, ExperimentError, TrainingSet};
+use uwnr_render::MethodKind;
 use uwnr_run::Event as RunEvent;
 
-use crate::cli::{BaselineOpts, DepthOpts, MethodArg, ModelOpts};
+use crate::cli::{DownstreamArgs, ExperimentAction, ExperimentArgs, ModelOpts, PrecisionArg};
 
 /// Enhancer crop side when no --enhance-config is given.
 const DEFAULT_CROP: usize = 128;
-
-#[derive(Debug, Args)]
-pub struct ExperimentArgs {
-    #[command(subcommand)]
-    pub action: ExperimentAction,
-}
-
-#[derive(Debug, Subcommand)]
-pub enum ExperimentAction {
-    /// Render one training set per method from the same clean images and references, train
-    /// Shallow-UWnet on each with the same budget, score each on real paired test sets, and
-    /// write OUT/results.md, OUT/results.json and OUT/examples.png (the paper's Table 1).
-    Downstream(Box<DownstreamArgs>),
-}
-
-#[derive(Debug, Args)]
-pub struct DownstreamArgs {
-    /// Clean images: files or folders (searched recursively).
-    #[arg(long, num_args = 1.., value_name = "DIR|FILE")]
-    pub clean: Vec<PathBuf>,
-    /// Real underwater references: files or folders (searched recursively).
-    #[arg(long, num_args = 1.., value_name = "DIR|FILE")]
-    pub references: Vec<PathBuf>,
-    /// Real paired test sets (underwater/ + clean/).
-    #[arg(long, num_args = 1.., value_name = "DIR", required = true)]
-    pub test: Vec<PathBuf>,
-    /// Real paired training sets, trained on with the same budget as reference rows.
-    #[arg(long, num_args = 1.., value_name = "DIR")]
-    pub real: Vec<PathBuf>,
-    /// Output folder (run the same command again to continue).
-    #[arg(long, short = 'o', value_name = "OUT", required = true)]
-    pub out: PathBuf,
-    /// Rendering methods, one training set each.
-    #[arg(
-        long,
-        value_enum,
-        value_delimiter = ',',
-        default_value = "uwnr,uwgan,jerlov,uisa,seathru,reinhard"
-    )]
-    pub methods: Vec<MethodArg>,
-    /// Renders per clean image, each after a different reference.
-    #[arg(long, short = 'k', value_name = "K", default_value_t = 4)]
-    pub per_image: usize,
-    /// Size of the synthetic pairs: native or WxH (scaled to cover, centre-cropped).
-    #[arg(long, value_name = "native|WxH", default_value = "256x256")]
-    pub size: uwnr_dataset::Size,
-    /// Seed of the reference draw, the methods' parameters and training.
-    #[arg(long, default_value_t = 0)]
-    pub seed: u64,
-    /// Training samples each network sees (the same for every training set).
-    #[arg(long, value_name = "SAMPLES", default_value_t = 6000)]
-    pub budget: usize,
-    /// Enhancer training config (JSON, see `uwnr enhance train`); epochs and learning-rate
-    /// steps are set from the budget.
-    #[arg(long, value_name = "FILE")]
-    pub enhance_config: Option<PathBuf>,
-    /// Override: enhancer crop side (default 128, or the --enhance-config file's).
-    #[arg(long)]
-    pub crop: Option<usize>,
-    /// Override: enhancer batch size.
-    #[arg(long)]
-    pub batch_size: Option<usize>,
-    /// VGG19 weights (safetensors, torchvision keys) for the enhancer's perceptual term.
-    #[arg(long, value_name = "FILE")]
-    pub vgg19: Option<PathBuf>,
-    /// Test images with a longer side above this are downscaled to it before scoring
-    /// (0 = score at native size).
-    #[arg(long, value_name = "PIXELS", default_value_t = 512)]
-    pub eval_max_side: usize,
-    /// Test images per test set shown in examples.png.
-    #[arg(long, value_name = "N", default_value_t = 2)]
-    pub examples: usize,
-    /// Rendering threads (default: the number of CPU cores).
-    #[arg(long, short = 'j', value_name = "J")]
-    pub jobs: Option<usize>,
-    #[command(flatten)]
-    pub baseline: BaselineOpts,
-    #[command(flatten)]
-    pub depth: DepthOpts,
-    #[command(flatten)]
-    pub model: ModelOpts,
-    /// GAN generator for the uwgan set (`generator.safetensors` of a `uwnr gan train` run);
-    /// default the bundled one. (--weights is the UWNR network's.)
-    #[arg(long, value_name = "FILE")]
-    pub gan_weights: Option<PathBuf>,
-}
 
 pub fn run(a: &ExperimentArgs) -> Result<ExitCode> {
     match &a.action {
@@ -113,20 +25,24 @@ fn training_sets(a: &DownstreamArgs) -> Result<Vec<TrainingSet>> {
     super::method::refuse_inapplicable(&a.methods, &a.baseline, have_refs)?;
     let mut sets = Vec::new();
     for &m in &a.methods {
-        let renderer = match super::method::baseline_method(m, &a.baseline, have_refs)? {
-            Some(method) => Renderer::Baseline(method),
-            None if m == MethodArg::Uwgan => super::gan_renderer(
-                &crate::cli::ModelOpts {
-                    weights: a.gan_weights.clone(),
-                    ..a.model.clone()
-                },
-                crate::cli::PrecisionArg::F32,
-            )?,
-            None => super::network_renderer(&a.model)?,
+        // The GAN's generator is --gan-weights (--weights is the UWNR network's).
+        let model = ModelOpts {
+            weights: if m == MethodKind::Uwgan {
+                a.gan_weights.clone()
+            } else {
+                a.model.weights.clone()
+            },
+            ..a.model.clone()
         };
         sets.push(TrainingSet {
-            name: super::method::method_name(m).to_string(),
-            renderer,
+            name: m.name().to_string(),
+            renderer: super::method::renderer(
+                m,
+                &a.baseline,
+                &model,
+                PrecisionArg::F32,
+                have_refs,
+            )?,
         });
     }
     Ok(sets)

@@ -1,25 +1,28 @@
-//! Mapping the baseline flags of `uwnr render` onto `uwnr_baselines::Method`.
+//! From the method flags of `uwnr render`, `uwnr dataset` and `uwnr experiment` to a
+//! [`MethodSpec`]: the methods' defaults come from `uwnr-render`; here only the flags that
+//! a method has on the command line are mapped onto its settings.
 
 use anyhow::{Context, Result, bail};
 use uwnr_baselines::{
-    ColourSpace, GivenCoefficients, JerlovParams, Method, Range, ReferenceCoefficients,
-    ReinhardParams, SampledCoefficients, SeathruCoefficients, SeathruParams, UisaParams, WaterType,
+    ColourSpace, GivenCoefficients, Range, ReferenceCoefficients, SampledCoefficients,
+    SeathruCoefficients, WaterType,
 };
+use uwnr_render::{MethodKind, MethodSpec, Renderer};
 
-use crate::cli::{BaselineOpts, MethodArg, SeathruSource};
+use crate::cli::{BaselineOpts, DeviceArg, ModelOpts, PrecisionArg, SeathruSource};
 
 fn range((min, max): (f64, f64)) -> Range {
     Range { min, max }
 }
 
-/// Refuses a baseline option that none of `methods` uses, with one line naming the option and
+/// Refuses a method option that none of `methods` uses, with one line naming the option and
 /// the method(s): an option that does not apply is a mistake, not something to ignore.
 pub fn refuse_inapplicable(
-    methods: &[MethodArg],
+    methods: &[MethodKind],
     o: &BaselineOpts,
     have_reference: bool,
 ) -> Result<()> {
-    use MethodArg::{Jerlov, Reinhard, Seathru, Uisa, Uwnr};
+    use MethodKind::{Jerlov, Reinhard, Seathru, Uwnr};
     let seathru_given = o.seathru == Some(SeathruSource::Given);
     // Sea-thru takes its coefficients from the reference when one is given, unless told.
     let seathru_fitted = match o.seathru {
@@ -27,13 +30,13 @@ pub fn refuse_inapplicable(
         Some(_) => false,
         None => have_reference && o.method_config.is_none(),
     };
+    let configurable: Vec<MethodKind> = MethodKind::ALL
+        .into_iter()
+        .filter(|k| !k.loads_weights())
+        .collect();
     // (flag, is it set, the methods it applies to)
-    let flags: [(&str, bool, &[MethodArg]); 9] = [
-        (
-            "--method-config",
-            o.method_config.is_some(),
-            &[Jerlov, Uisa, Seathru, Reinhard],
-        ),
+    let flags: [(&str, bool, &[MethodKind]); 9] = [
+        ("--method-config", o.method_config.is_some(), &configurable),
         ("--water-type", o.water_type.is_some(), &[Jerlov]),
         (
             "--depth-scale",
@@ -50,13 +53,13 @@ pub fn refuse_inapplicable(
     let names = || {
         methods
             .iter()
-            .map(|&m| method_name(m))
+            .map(|m| m.name())
             .collect::<Vec<_>>()
             .join(",")
     };
     for (flag, set, applies) in flags {
         if set && !methods.iter().any(|m| applies.contains(m)) {
-            let to = applies.iter().map(|&m| method_name(m)).collect::<Vec<_>>();
+            let to = applies.iter().map(|m| m.name()).collect::<Vec<_>>();
             bail!(
                 "{flag} does not apply to --method {} (only to {})",
                 names(),
@@ -91,69 +94,49 @@ pub fn refuse_inapplicable(
     Ok(())
 }
 
-/// The name `--method` gives a method.
-#[must_use]
-pub fn method_name(m: MethodArg) -> &'static str {
-    match m {
-        MethodArg::Uwnr => "uwnr",
-        MethodArg::Uwgan => "uwgan",
-        MethodArg::Jerlov => "jerlov",
-        MethodArg::Uisa => "uisa",
-        MethodArg::Seathru => "seathru",
-        MethodArg::Reinhard => "reinhard",
-    }
-}
-
-/// The baseline named by `--method` with its flags applied; `None` for the networks (`uwnr`,
-/// `uwgan`). Callers first
-/// refuse flags that apply to none of their methods ([`refuse_inapplicable`]).
-pub fn baseline_method(
-    method: MethodArg,
+/// Method `kind` with its flags applied: the networks take the model options and `precision`,
+/// the other methods `--method-config` and their own flags. Callers first refuse flags that
+/// apply to none of their methods ([`refuse_inapplicable`]).
+pub fn method_spec(
+    kind: MethodKind,
     o: &BaselineOpts,
+    model: &ModelOpts,
+    precision: PrecisionArg,
     have_reference: bool,
-) -> Result<Option<Method>> {
-    let from_file = match &o.method_config {
-        Some(path) => {
+) -> Result<MethodSpec> {
+    let mut spec = match &o.method_config {
+        Some(path) if !kind.loads_weights() => {
             let text = std::fs::read_to_string(path)
                 .with_context(|| format!("reading {}", path.display()))?;
-            let m: Method = serde_json::from_str(&text)
-                .with_context(|| format!("parsing method config {}", path.display()))?;
-            Some(m)
+            MethodSpec::from_json(&text, Some(kind))
+                .with_context(|| format!("method config {}", path.display()))?
         }
-        None => None,
+        _ => MethodSpec::defaults(kind, have_reference),
     };
-    let mut m = match method {
-        MethodArg::Uwnr | MethodArg::Uwgan => return Ok(None),
-        MethodArg::Jerlov => match from_file {
-            Some(m @ Method::Jerlov(_)) => m,
-            None => Method::Jerlov(JerlovParams::default()),
-            Some(other) => bail!("--method-config is for {}, not jerlov", other.name()),
-        },
-        MethodArg::Uisa => match from_file {
-            Some(m @ Method::Uisa(_)) => m,
-            None => Method::Uisa(UisaParams::default()),
-            Some(other) => bail!("--method-config is for {}, not uisa", other.name()),
-        },
-        MethodArg::Seathru => match from_file {
-            Some(m @ Method::Seathru(_)) => m,
-            None => Method::Seathru(SeathruParams {
-                coefficients: if have_reference {
-                    SeathruCoefficients::FromReference(ReferenceCoefficients::default())
-                } else {
-                    SeathruCoefficients::Sampled(SampledCoefficients::default())
-                },
-                ..SeathruParams::default()
-            }),
-            Some(other) => bail!("--method-config is for {}, not seathru", other.name()),
-        },
-        MethodArg::Reinhard => match from_file {
-            Some(m @ Method::Reinhard(_)) => m,
-            None => Method::Reinhard(ReinhardParams::default()),
-            Some(other) => bail!("--method-config is for {}, not reinhard", other.name()),
-        },
-    };
-    match &mut m {
-        Method::Jerlov(p) => {
+    match &mut spec {
+        MethodSpec::Uwnr(s) => {
+            if precision == PrecisionArg::Bf16 && model.device != DeviceArg::Engine {
+                bail!(
+                    "--precision bf16 runs on the engine only: drop --device or pass --precision f32"
+                );
+            }
+            s.weights.clone_from(&model.weights);
+            s.device = model.device.into();
+            s.precision = precision.into();
+            s.max_whole_pixels = model.max_whole_pixels;
+            s.tile = model.tile;
+            s.overlap = model.overlap;
+        }
+        MethodSpec::Uwgan(s) => {
+            if precision == PrecisionArg::Bf16 {
+                bail!(
+                    "--precision bf16 applies to --method uwnr only (the UWGAN generator runs in f32)"
+                );
+            }
+            s.weights.clone_from(&model.weights);
+            s.device = model.device.into();
+        }
+        MethodSpec::Jerlov(p) => {
             if let Some(t) = o.water_type {
                 p.water_type = Some(WaterType::from(t));
             }
@@ -164,7 +147,7 @@ pub fn baseline_method(
                 p.background_depth = range(r);
             }
         }
-        Method::Seathru(p) => {
+        MethodSpec::Seathru(p) => {
             match o.seathru {
                 Some(SeathruSource::Given) => {
                     let d = GivenCoefficients::default();
@@ -199,7 +182,7 @@ pub fn baseline_method(
                 }
             }
         }
-        Method::Reinhard(p) => {
+        MethodSpec::Reinhard(p) => {
             if let Some(s) = o.reinhard_space {
                 p.space = ColourSpace::from(s);
             }
@@ -207,10 +190,25 @@ pub fn baseline_method(
                 p.match_std = false;
             }
         }
-        Method::Uisa(_) => {}
+        MethodSpec::Uisa(_) | MethodSpec::Haze(_) => {}
     }
-    if m.needs_reference() && !have_reference {
-        bail!("--method {} needs --reference", m.name());
+    if !kind.loads_weights()
+        && spec.reference_use() == uwnr_render::ReferenceUse::Required
+        && !have_reference
+    {
+        bail!("--method {kind} needs --reference");
     }
-    Ok(Some(m))
+    Ok(spec)
+}
+
+/// [`method_spec`], loaded.
+pub fn renderer(
+    kind: MethodKind,
+    o: &BaselineOpts,
+    model: &ModelOpts,
+    precision: PrecisionArg,
+    have_reference: bool,
+) -> Result<Renderer> {
+    let spec = method_spec(kind, o, model, precision, have_reference)?;
+    Ok(Renderer::load(spec)?)
 }

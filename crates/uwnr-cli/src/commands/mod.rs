@@ -5,7 +5,7 @@ mod dataset;
 mod depth;
 mod enhance;
 mod eval;
-pub(crate) mod experiment;
+mod experiment;
 mod gan;
 mod info;
 mod lightfield;
@@ -23,9 +23,9 @@ use indicatif::{ProgressBar, ProgressStyle};
 
 use anyhow::{Context, Result, bail};
 use uwnr_depth::DepthSource;
-use uwnr_model::{Backend, Device, Generator, GeneratorConfig, Network, WeightsInfo};
+use uwnr_model::{Device, Generator, GeneratorConfig, WeightsInfo};
 
-use crate::cli::{Cli, Command, DepthOpts, DeviceArg, PrecisionArg};
+use crate::cli::{Cli, Command, DepthOpts, DeviceArg};
 
 /// Runs the parsed command line.
 pub fn run(cli: Cli) -> Result<ExitCode> {
@@ -54,25 +54,6 @@ pub fn device(arg: DeviceArg) -> Result<Device> {
     uwnr_model::device_from_name(name).with_context(|| format!("selecting device {name:?}"))
 }
 
-/// What runs the generator for rendering: the engine, or burn on the named device.
-pub fn backend(arg: DeviceArg) -> Result<Backend> {
-    match arg {
-        DeviceArg::Engine => Ok(Backend::Engine),
-        DeviceArg::Flex | DeviceArg::Tch => Ok(Backend::Burn(device(arg)?)),
-    }
-}
-
-/// [`backend`] at `precision`: bf16 exists on the engine only, so it is refused elsewhere.
-pub fn backend_at(arg: DeviceArg, precision: PrecisionArg) -> Result<Backend> {
-    match (arg, precision) {
-        (_, PrecisionArg::F32) => backend(arg),
-        (DeviceArg::Engine, PrecisionArg::Bf16) => Ok(Backend::EngineBf16),
-        (DeviceArg::Flex | DeviceArg::Tch, PrecisionArg::Bf16) => {
-            bail!("--precision bf16 runs on the engine only: drop --device or pass --precision f32")
-        }
-    }
-}
-
 /// Weights of the model shipped inside this binary (`uwnr_model::bundled_weights`).
 pub fn bundled_weights() -> Option<&'static [u8]> {
     uwnr_model::bundled_weights()
@@ -98,57 +79,6 @@ pub fn load_model(
             "this build has no bundled model: pass --weights FILE (safetensors or the authors' checkpoint)"
         ),
     }
-}
-
-/// Loads the network from `--weights`, or the bundled model, for `backend`; returns it with
-/// the file's facts and a name for where it came from.
-pub fn load_network(
-    weights: Option<&Path>,
-    backend: &Backend,
-) -> Result<(Network, WeightsInfo, String)> {
-    if let Some(path) = weights {
-        let (n, i) = Network::load(path, backend)
-            .with_context(|| format!("loading weights {}", path.display()))?;
-        return Ok((n, i, path.display().to_string()));
-    }
-    match bundled_weights() {
-        Some(bytes) => {
-            let (n, i) =
-                Network::load_from_bytes(bytes, backend).context("loading the bundled model")?;
-            Ok((n, i, uwnr_model::BUNDLED_MODEL_NAME.to_string()))
-        }
-        None => bail!(
-            "this build has no bundled model: pass --weights FILE (safetensors or the authors' checkpoint)"
-        ),
-    }
-}
-
-/// The GAN baseline's generator from `--weights`, or the bundled one, with the device it runs
-/// on, its weight bytes and where they came from. It runs on burn (`--device engine` means flex
-/// here); bf16 products are an engine feature, so `--precision bf16` is refused.
-pub fn load_gan(
-    model: &crate::cli::ModelOpts,
-    precision: PrecisionArg,
-) -> Result<(uwnr_gan::Generator, Device, Vec<u8>, String)> {
-    if precision == PrecisionArg::Bf16 {
-        bail!("--precision bf16 applies to --method uwnr only (the UWGAN generator runs in f32)");
-    }
-    let device = device(model.device)?;
-    let (generator, bytes, source) =
-        uwnr_gan::generator_or_bundled(model.weights.as_deref(), &device)
-            .context("loading the UWGAN generator")?;
-    Ok((generator, device, bytes, source))
-}
-
-/// [`load_gan`] as a dataset renderer.
-pub fn gan_renderer(
-    model: &crate::cli::ModelOpts,
-    precision: PrecisionArg,
-) -> Result<uwnr_dataset::Renderer> {
-    let (generator, device, bytes, source) = load_gan(model, precision)?;
-    Ok(uwnr_dataset::Renderer::gan(
-        generator, device, source, &bytes,
-    ))
 }
 
 /// The depth source chosen by the depth options.
@@ -220,34 +150,4 @@ pub fn progress_bar(template: &str) -> ProgressBar {
         bar.set_style(style.progress_chars("=> "));
     }
     bar
-}
-
-/// The UWNR network as a dataset renderer: `--weights` or the bundled model, with the weight
-/// bytes fingerprinted into the dataset's settings.
-pub fn network_renderer(model: &crate::cli::ModelOpts) -> Result<uwnr_dataset::Renderer> {
-    network_renderer_at(model, PrecisionArg::F32)
-}
-
-/// [`network_renderer`] at `precision`.
-pub fn network_renderer_at(
-    model: &crate::cli::ModelOpts,
-    precision: PrecisionArg,
-) -> Result<uwnr_dataset::Renderer> {
-    let backend = backend_at(model.device, precision)?;
-    let (network, _info, source) = load_network(model.weights.as_deref(), &backend)?;
-    let bytes = match &model.weights {
-        Some(p) => std::fs::read(p).with_context(|| format!("reading {}", p.display()))?,
-        None => bundled_weights().unwrap_or_default().to_vec(),
-    };
-    Ok(uwnr_dataset::Renderer::network(
-        network,
-        uwnr_model::RenderOptions {
-            max_tile_pixels: model.max_whole_pixels,
-            tile: model.tile,
-            overlap: model.overlap,
-            ..Default::default()
-        },
-        source,
-        &bytes,
-    ))
 }

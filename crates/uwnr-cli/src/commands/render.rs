@@ -7,42 +7,12 @@ use std::path::Path;
 use std::process::ExitCode;
 
 use anyhow::{Context, Result, anyhow, bail};
-use uwnr_baselines::{Method, RenderInput};
-use uwnr_core::Image;
 use uwnr_core::io::{DecodeLimits, is_image_path, load_rgb, save_rgb};
-use uwnr_model::{Network, ReferenceStyle, RenderOptions};
+use uwnr_render::{PreparedReference, ReferenceUse, Renderer, Worker};
 
-use crate::cli::{MethodArg, RenderArgs};
+use crate::cli::RenderArgs;
 use crate::inputs::{Job, expand_images, plan_jobs};
 use crate::report::Batch;
-
-/// What renders each job.
-enum Renderer {
-    Network {
-        network: Box<Network>,
-        opts: RenderOptions,
-        /// Seeds the scene scale drawn per image when `--depth-scale` is a range.
-        seed: u64,
-    },
-    /// The GAN baseline: the water code of job `index` is drawn from `item_seed(seed, index)`.
-    Gan {
-        generator: Box<uwnr_gan::Generator>,
-        device: uwnr_model::Device,
-        seed: u64,
-    },
-    Baseline {
-        method: Method,
-        seed: u64,
-    },
-}
-
-/// The per-reference input a renderer needs, computed once per reference.
-enum RefInput {
-    /// What the network takes of the reference (its light field, and its water).
-    Style(ReferenceStyle),
-    /// The decoded reference (baselines).
-    Image(Image),
-}
 
 pub fn run(a: &RenderArgs) -> Result<ExitCode> {
     let cleans = expand_images(&a.clean, "clean")?;
@@ -52,15 +22,26 @@ pub fn run(a: &RenderArgs) -> Result<ExitCode> {
         expand_images(&a.reference, "reference")?
     };
     super::method::refuse_inapplicable(&[a.method], &a.baseline, !refs.is_empty())?;
-    let baseline = super::method::baseline_method(a.method, &a.baseline, !refs.is_empty())?;
-    let gan = a.method == MethodArg::Uwgan;
-    if baseline.is_none() && !gan && refs.is_empty() {
-        bail!("--method uwnr needs --reference (a real underwater image whose style is rendered)");
+    let spec = super::method::method_spec(
+        a.method,
+        &a.baseline,
+        &a.model,
+        a.precision,
+        !refs.is_empty(),
+    )?;
+    if spec.reference_use() == ReferenceUse::Required && refs.is_empty() {
+        bail!(
+            "--method {} needs --reference (a real underwater image whose style is rendered)",
+            a.method
+        );
     }
-    // The GAN reads no reference: its water comes from the code drawn from --seed.
-    let refs = if gan {
+    // A method that reads no reference (the GAN's water comes from the code drawn from --seed).
+    let refs = if spec.reference_use() == ReferenceUse::Ignored && a.method.loads_weights() {
         if !refs.is_empty() {
-            eprintln!("note: --method uwgan uses no reference; --reference is ignored");
+            eprintln!(
+                "note: --method {} uses no reference; --reference is ignored",
+                a.method
+            );
         }
         Vec::new()
     } else {
@@ -96,39 +77,11 @@ pub fn run(a: &RenderArgs) -> Result<ExitCode> {
         )
     };
 
-    let renderer = match baseline {
-        Some(method) => Renderer::Baseline {
-            method,
-            seed: a.seed,
-        },
-        None if gan => {
-            let (generator, device, _bytes, _source) = super::load_gan(&a.model, a.precision)?;
-            Renderer::Gan {
-                generator: Box::new(generator),
-                device,
-                seed: a.seed,
-            }
-        }
-        None => {
-            let backend = super::backend_at(a.model.device, a.precision)?;
-            let (network, _info, _source) =
-                super::load_network(a.model.weights.as_deref(), &backend)?;
-            Renderer::Network {
-                network: Box::new(network),
-                opts: RenderOptions {
-                    max_tile_pixels: a.model.max_whole_pixels,
-                    tile: a.model.tile,
-                    overlap: a.model.overlap,
-                    ..Default::default()
-                },
-                seed: a.seed,
-            }
-        }
-    };
+    let renderer = Renderer::load(spec)?;
     let prepared = super::depth_source(&a.depth)?
         .prepare()
         .context("preparing the depth source")?;
-    if a.depth.prior_trust.is_some() && a.method != MethodArg::Uwnr {
+    if a.depth.prior_trust.is_some() && a.method != uwnr_render::MethodKind::Uwnr {
         bail!("--prior-trust applies to --method uwnr only");
     }
     let policy = super::depth_policy(
@@ -141,7 +94,9 @@ pub fn run(a: &RenderArgs) -> Result<ExitCode> {
     let limits = DecodeLimits::default();
     // Each reference is decoded (and its light field computed) once, then reused by every
     // clean image paired with it.
-    let mut ref_inputs: HashMap<usize, std::result::Result<RefInput, String>> = HashMap::new();
+    let mut ref_inputs: HashMap<usize, std::result::Result<PreparedReference, String>> =
+        HashMap::new();
+    let worker = renderer.worker()?;
     let mut batch = Batch::new(jobs.len(), "rendering");
     for (index, job) in jobs.iter().enumerate() {
         let clean_path = &cleans[job.clean];
@@ -158,11 +113,12 @@ pub fn run(a: &RenderArgs) -> Result<ExitCode> {
             Ok(r) => render_one(
                 clean_path,
                 r,
+                index,
                 &job.output,
                 &prepared,
                 &policy,
-                &renderer,
-                index,
+                &worker,
+                a.seed,
                 &limits,
                 &batch,
             ),
@@ -184,28 +140,30 @@ pub fn run(a: &RenderArgs) -> Result<ExitCode> {
     })
 }
 
-fn reference_input(path: &Path, renderer: &Renderer, limits: &DecodeLimits) -> Result<RefInput> {
+fn reference_input(
+    path: &Path,
+    renderer: &Renderer,
+    limits: &DecodeLimits,
+) -> Result<PreparedReference> {
     let reference =
         load_rgb(path, limits).with_context(|| format!("reading reference {}", path.display()))?;
-    Ok(match renderer {
-        Renderer::Network { network, .. } => RefInput::Style(
-            network
-                .style(&reference)
-                .with_context(|| format!("style of {}", path.display()))?,
-        ),
-        Renderer::Baseline { .. } | Renderer::Gan { .. } => RefInput::Image(reference),
-    })
+    renderer
+        .prepare_reference(reference)
+        .with_context(|| format!("style of {}", path.display()))
 }
 
+/// Renders job `index` of the batch: its random parameters (the baselines', the GAN's water
+/// code, a range's scene scale) are drawn from `item_seed(seed, index)`.
 #[allow(clippy::too_many_arguments)]
 fn render_one(
     clean_path: &Path,
-    reference: Option<&RefInput>,
+    reference: Option<&PreparedReference>,
+    index: usize,
     output: &Path,
     depth: &uwnr_depth::PreparedDepth,
     policy: &uwnr_dataset::DepthPolicy,
-    renderer: &Renderer,
-    index: usize,
+    worker: &Worker<'_>,
+    seed: u64,
     limits: &DecodeLimits,
     batch: &Batch,
 ) -> Result<()> {
@@ -214,52 +172,17 @@ fn render_one(
     for n in &depth.notes {
         batch.note(&format!("note: {}: {n}", clean_path.display()));
     }
-    let out = match (renderer, reference) {
-        (Renderer::Network { network, opts, .. }, Some(RefInput::Style(style))) => {
-            // The scene scale of a range is drawn per image, as the baselines draw theirs.
-            let seed = match renderer {
-                Renderer::Network { seed, .. } => uwnr_baselines::item_seed(*seed, index),
-                _ => 0,
-            };
-            let opts = RenderOptions {
-                depth: policy.response(&depth, seed),
-                ..*opts
-            };
-            network
-                .render(&clean, &depth.map, style, &opts)
-                .context("rendering")?
-        }
-        (Renderer::Baseline { method, seed }, reference) => {
-            let reference = match reference {
-                Some(RefInput::Image(img)) => Some(img),
-                _ => None,
-            };
-            let input = RenderInput {
-                clean: &clean,
-                depth: &depth.map,
-                reference,
-            };
-            uwnr_baselines::render(method, &input, uwnr_baselines::item_seed(*seed, index))
-                .with_context(|| format!("rendering with {}", method.name()))?
-                .image
-        }
-        (
-            Renderer::Gan {
-                generator,
-                device,
-                seed,
-            },
-            _,
-        ) => uwnr_gan::render(
-            generator,
+    let seed = uwnr_baselines::item_seed(seed, index);
+    let response = policy.response(&depth, seed);
+    let out = worker
+        .render(
             &clean,
             &depth.map,
-            uwnr_baselines::item_seed(*seed, index),
-            device,
-        )
-        .context("rendering with uwgan")?,
-        (Renderer::Network { .. }, _) => bail!("the network needs a reference"),
-    };
+            &response,
+            reference.map(PreparedReference::input),
+            seed,
+        )?
+        .image;
     save_rgb(output, &out).with_context(|| format!("writing {}", output.display()))?;
     Ok(())
 }

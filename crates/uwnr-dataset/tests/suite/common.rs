@@ -71,7 +71,7 @@ pub fn spec(clean: &Path, refs: &Path, k: usize) -> Spec {
 }
 
 pub fn reinhard() -> Renderer {
-    Renderer::Baseline(Method::Reinhard(ReinhardParams::default()))
+    Renderer::baseline(Method::Reinhard(ReinhardParams::default()))
 }
 
 pub fn opts(jobs: usize) -> RunOptions {

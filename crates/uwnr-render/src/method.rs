@@ -1,0 +1,531 @@
+//! What a render method is: [`MethodKind`] names one, [`MethodSpec`] is one with every setting
+//! it renders with. A spec is what a dataset records, what `--method-config` files and Python's
+//! keywords hold, and what [`crate::Renderer::load`] turns into a renderer.
+//!
+//! JSON is tagged by `"method"`, e.g. `{"method": "jerlov", "water_type": "3C"}` or
+//! `{"method": "uwnr", "precision": "bf16"}`; missing fields take their defaults, and the
+//! baselines' JSON is `uwnr_baselines::Method`'s, so their config files read unchanged.
+
+use std::fmt;
+use std::path::PathBuf;
+use std::str::FromStr;
+
+use serde::{Deserialize, Serialize};
+use serde_json::{Map, Value};
+use uwnr_baselines::{
+    JerlovParams, Method, ReferenceCoefficients, ReinhardParams, SampledCoefficients,
+    SeathruCoefficients, SeathruParams, UisaParams,
+};
+use uwnr_model::RenderOptions;
+
+use crate::error::{RenderError, Result};
+use crate::haze::HazeParams;
+
+/// The render methods, by name.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MethodKind {
+    /// The UWNR generator: neural rendering from a reference's light field.
+    Uwnr,
+    /// The UWGAN-style GAN baseline: water parameters predicted from the clean image, its depth
+    /// and a code drawn from the seed.
+    Uwgan,
+    /// UWCNN's synthesis with the ten Jerlov water types.
+    Jerlov,
+    /// The reference-based physical model in the manner of Hou et al. 2020 (SUID).
+    Uisa,
+    /// The revised (Sea-thru) image formation model.
+    Seathru,
+    /// Reinhard et al. 2001 colour transfer from the reference.
+    Reinhard,
+    /// Plain haze `I = J t + B (1 - t)` with a given veil and attenuation: a control.
+    Haze,
+}
+
+impl MethodKind {
+    /// Every method, in the order the docs list them.
+    pub const ALL: [Self; 7] = [
+        Self::Uwnr,
+        Self::Uwgan,
+        Self::Jerlov,
+        Self::Uisa,
+        Self::Seathru,
+        Self::Reinhard,
+        Self::Haze,
+    ];
+
+    /// The method's name (`--method`, the `"method"` tag, Python's `method=`).
+    #[must_use]
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::Uwnr => "uwnr",
+            Self::Uwgan => "uwgan",
+            Self::Jerlov => "jerlov",
+            Self::Uisa => "uisa",
+            Self::Seathru => "seathru",
+            Self::Reinhard => "reinhard",
+            Self::Haze => "haze",
+        }
+    }
+
+    /// One line on what the method does, for `--help`.
+    #[must_use]
+    pub const fn summary(self) -> &'static str {
+        match self {
+            Self::Uwnr => "The UWNR generator (neural rendering from the reference's light field)",
+            Self::Uwgan => {
+                "The UWGAN-style GAN baseline (`uwnr gan train`): water parameters predicted from \
+                 the clean image, its depth and a code drawn from --seed; no reference needed. \
+                 Bundled model unless --weights names a trained generator"
+            }
+            Self::Jerlov => {
+                "UWCNN's synthesis with the ten Jerlov water types (no reference needed)"
+            }
+            Self::Uisa => "Reference-based physical model in the manner of Hou et al. 2020 (SUID)",
+            Self::Seathru => "The revised (Sea-thru) image formation model",
+            Self::Reinhard => "Reinhard et al. 2001 colour transfer from the reference",
+            Self::Haze => {
+                "Plain haze I = J t + B (1 - t) with a given veil B and attenuation beta \
+                 (--method-config; no reference needed): a control"
+            }
+        }
+    }
+
+    /// Whether the method runs trained weights (`--weights`, a device, a bundled model).
+    #[must_use]
+    pub const fn loads_weights(self) -> bool {
+        matches!(self, Self::Uwnr | Self::Uwgan)
+    }
+
+    /// The names of all methods, comma-separated.
+    #[must_use]
+    pub fn names() -> String {
+        Self::ALL.map(Self::name).join(", ")
+    }
+}
+
+impl fmt::Display for MethodKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for MethodKind {
+    type Err = RenderError;
+
+    fn from_str(s: &str) -> Result<Self> {
+        Self::ALL
+            .into_iter()
+            .find(|k| k.name() == s)
+            .ok_or_else(|| RenderError::UnknownMethod {
+                name: s.to_string(),
+                known: Self::names(),
+            })
+    }
+}
+
+/// Arithmetic of the network's heavy products.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Precision {
+    /// f32 throughout.
+    #[default]
+    F32,
+    /// bf16 operands with f32 sums (the engine only): faster on CPUs with AVX512_BF16, outputs
+    /// up to one 8-bit level off the f32 ones.
+    Bf16,
+}
+
+/// What runs a network.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ComputeDevice {
+    /// uwnr's CPU inference engine (the GAN, which runs on burn, takes it as flex).
+    #[default]
+    Engine,
+    /// burn's pure-Rust CPU backend.
+    Flex,
+    /// libtorch through burn (builds with the `tch` feature).
+    Tch,
+}
+
+impl ComputeDevice {
+    /// The device's name, as `uwnr_model::backend_from_name` reads it.
+    #[must_use]
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::Engine => uwnr_model::ENGINE_NAME,
+            Self::Flex => "flex",
+            Self::Tch => "tch",
+        }
+    }
+}
+
+/// The UWNR network's settings.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct UwnrSpec {
+    /// Weights (safetensors with the authors' keys, or their checkpoint); `None`: the bundled
+    /// model.
+    pub weights: Option<PathBuf>,
+    /// What runs the network.
+    pub device: ComputeDevice,
+    /// Arithmetic of the convolutions (bf16 on the engine only).
+    pub precision: Precision,
+    /// Images with more pixels than this are rendered in overlapping tiles.
+    pub max_whole_pixels: usize,
+    /// Tile edge in pixels (a multiple of 16).
+    pub tile: usize,
+    /// Overlap of tiles in pixels (a multiple of 16).
+    pub overlap: usize,
+}
+
+impl Default for UwnrSpec {
+    fn default() -> Self {
+        let o = RenderOptions::default();
+        Self {
+            weights: None,
+            device: ComputeDevice::default(),
+            precision: Precision::default(),
+            max_whole_pixels: o.max_tile_pixels,
+            tile: o.tile,
+            overlap: o.overlap,
+        }
+    }
+}
+
+impl UwnrSpec {
+    /// The tiling as the network's render options (the depth response is set per render).
+    #[must_use]
+    pub fn render_options(&self) -> RenderOptions {
+        RenderOptions {
+            max_tile_pixels: self.max_whole_pixels,
+            tile: self.tile,
+            overlap: self.overlap,
+            ..RenderOptions::default()
+        }
+    }
+}
+
+/// The GAN baseline's settings.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct UwganSpec {
+    /// A generator (`generator.safetensors` of `uwnr gan train`); `None`: the bundled one.
+    pub weights: Option<PathBuf>,
+    /// What runs it (burn: the engine's name means flex here).
+    pub device: ComputeDevice,
+}
+
+/// A render method with all its settings.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "method", rename_all = "snake_case")]
+pub enum MethodSpec {
+    /// The UWNR network.
+    Uwnr(UwnrSpec),
+    /// The UWGAN-style GAN baseline.
+    Uwgan(UwganSpec),
+    /// UWCNN's Jerlov water types.
+    Jerlov(JerlovParams),
+    /// UISA-style synthesis from a reference.
+    Uisa(UisaParams),
+    /// The revised (Sea-thru) model.
+    Seathru(SeathruParams),
+    /// Reinhard colour transfer.
+    Reinhard(ReinhardParams),
+    /// Plain haze, a control.
+    Haze(HazeParams),
+}
+
+/// Whether a method reads the reference image of a render.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ReferenceUse {
+    /// Never (its water comes from its own parameters).
+    Ignored,
+    /// When one is given; it renders without one too.
+    Optional,
+    /// Always: a render without one fails.
+    Required,
+}
+
+impl MethodSpec {
+    /// Which method this is.
+    #[must_use]
+    pub const fn kind(&self) -> MethodKind {
+        match self {
+            Self::Uwnr(_) => MethodKind::Uwnr,
+            Self::Uwgan(_) => MethodKind::Uwgan,
+            Self::Jerlov(_) => MethodKind::Jerlov,
+            Self::Uisa(_) => MethodKind::Uisa,
+            Self::Seathru(_) => MethodKind::Seathru,
+            Self::Reinhard(_) => MethodKind::Reinhard,
+            Self::Haze(_) => MethodKind::Haze,
+        }
+    }
+
+    /// The method's name.
+    #[must_use]
+    pub const fn name(&self) -> &'static str {
+        self.kind().name()
+    }
+
+    /// The method with its default settings, for renders that have references
+    /// (`have_reference`) or not. This is where a reference decides where Sea-thru's
+    /// coefficients come from: fitted to the reference when there is one, else sampled on the
+    /// Jerlov manifold.
+    #[must_use]
+    pub fn defaults(kind: MethodKind, have_reference: bool) -> Self {
+        match kind {
+            MethodKind::Uwnr => Self::Uwnr(UwnrSpec::default()),
+            MethodKind::Uwgan => Self::Uwgan(UwganSpec::default()),
+            MethodKind::Jerlov => Self::Jerlov(JerlovParams::default()),
+            MethodKind::Uisa => Self::Uisa(UisaParams::default()),
+            MethodKind::Seathru => Self::Seathru(SeathruParams {
+                coefficients: if have_reference {
+                    SeathruCoefficients::FromReference(ReferenceCoefficients::default())
+                } else {
+                    SeathruCoefficients::Sampled(SampledCoefficients::default())
+                },
+                ..SeathruParams::default()
+            }),
+            MethodKind::Reinhard => Self::Reinhard(ReinhardParams::default()),
+            MethodKind::Haze => Self::Haze(HazeParams::default()),
+        }
+    }
+
+    /// The method `kind` with `keywords` set over [`MethodSpec::defaults`] (JSON values by
+    /// option name, as in the method's JSON). An option the method does not have is an error
+    /// naming the options it has, never ignored.
+    pub fn from_keywords(
+        kind: MethodKind,
+        keywords: &Map<String, Value>,
+        have_reference: bool,
+    ) -> Result<Self> {
+        let defaults = Self::defaults(kind, have_reference);
+        let Value::Object(mut fields) =
+            serde_json::to_value(&defaults).map_err(|e| RenderError::Invalid(e.to_string()))?
+        else {
+            return Err(RenderError::Invalid(format!(
+                "the settings of method {kind} are not a JSON object"
+            )));
+        };
+        let mut known: Vec<String> = fields.keys().filter(|k| *k != "method").cloned().collect();
+        known.sort();
+        for (key, v) in keywords {
+            if key == "method" || !fields.contains_key(key) {
+                return Err(RenderError::UnknownOption {
+                    method: kind,
+                    option: key.clone(),
+                    known: known.join(", "),
+                });
+            }
+            fields.insert(key.clone(), v.clone());
+        }
+        serde_json::from_value(Value::Object(fields)).map_err(|e| RenderError::BadOptions {
+            method: kind,
+            reason: e.to_string(),
+        })
+    }
+
+    /// A method read from JSON (a `--method-config` file), which must be `kind` when one is
+    /// asked for.
+    pub fn from_json(text: &str, kind: Option<MethodKind>) -> Result<Self> {
+        let spec: Self =
+            serde_json::from_str(text).map_err(|e| RenderError::Invalid(e.to_string()))?;
+        match kind {
+            Some(k) if k != spec.kind() => Err(RenderError::Invalid(format!(
+                "the config is for {}, not {k}",
+                spec.name()
+            ))),
+            _ => Ok(spec),
+        }
+    }
+
+    /// The baseline of `uwnr_baselines` this spec is, if it is one.
+    #[must_use]
+    pub fn baseline(&self) -> Option<Method> {
+        match self {
+            Self::Jerlov(p) => Some(Method::Jerlov(p.clone())),
+            Self::Uisa(p) => Some(Method::Uisa(p.clone())),
+            Self::Seathru(p) => Some(Method::Seathru(p.clone())),
+            Self::Reinhard(p) => Some(Method::Reinhard(p.clone())),
+            Self::Uwnr(_) | Self::Uwgan(_) | Self::Haze(_) => None,
+        }
+    }
+
+    /// The spec of a `uwnr_baselines` method.
+    #[must_use]
+    pub fn from_baseline(method: Method) -> Self {
+        match method {
+            Method::Jerlov(p) => Self::Jerlov(p),
+            Method::Uisa(p) => Self::Uisa(p),
+            Method::Seathru(p) => Self::Seathru(p),
+            Method::Reinhard(p) => Self::Reinhard(p),
+        }
+    }
+
+    /// What a render of this method does with a reference.
+    #[must_use]
+    pub fn reference_use(&self) -> ReferenceUse {
+        let needs = match self {
+            Self::Uwnr(_) => true,
+            Self::Uwgan(_) | Self::Haze(_) => false,
+            Self::Jerlov(_) | Self::Uisa(_) | Self::Seathru(_) | Self::Reinhard(_) => {
+                self.baseline().is_some_and(|m| m.needs_reference())
+            }
+        };
+        if needs {
+            ReferenceUse::Required
+        } else {
+            ReferenceUse::Ignored
+        }
+    }
+
+    /// Checks the settings that can be checked before anything is loaded.
+    pub fn validate(&self) -> Result<()> {
+        match self {
+            Self::Uwnr(s) => {
+                s.render_options()
+                    .validate()
+                    .map_err(|e| RenderError::Invalid(e.to_string()))?;
+                if s.precision == Precision::Bf16 && s.device != ComputeDevice::Engine {
+                    return Err(RenderError::Invalid(format!(
+                        "bf16 precision runs on the engine only, not on {}",
+                        s.device.name()
+                    )));
+                }
+                Ok(())
+            }
+            Self::Haze(p) => p.validate(),
+            Self::Uwgan(_)
+            | Self::Jerlov(_)
+            | Self::Uisa(_)
+            | Self::Seathru(_)
+            | Self::Reinhard(_) => Ok(()),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_round_trip_and_an_unknown_name_lists_the_methods() {
+        for k in MethodKind::ALL {
+            assert_eq!(k.name().parse::<MethodKind>().unwrap(), k);
+            assert_eq!(MethodSpec::defaults(k, true).kind(), k);
+            let json = serde_json::to_value(MethodSpec::defaults(k, false)).unwrap();
+            assert_eq!(json["method"], k.name());
+        }
+        let e = "jerlow".parse::<MethodKind>().unwrap_err().to_string();
+        assert!(e.contains("jerlow") && e.contains("reinhard, haze"), "{e}");
+    }
+
+    #[test]
+    fn baseline_json_is_the_baselines_json() {
+        for text in [
+            r#"{"method":"jerlov","water_type":"3C"}"#,
+            r#"{"method":"reinhard","space":"rgb","match_std":false}"#,
+            r#"{"method":"seathru","coefficients":{"mode":"given"}}"#,
+            r#"{"method":"uisa"}"#,
+        ] {
+            let method: Method = serde_json::from_str(text).unwrap();
+            let spec = MethodSpec::from_json(text, None).unwrap();
+            assert_eq!(spec.baseline().unwrap(), method);
+            assert_eq!(
+                serde_json::to_value(&spec).unwrap(),
+                serde_json::to_value(&method).unwrap()
+            );
+            assert_eq!(MethodSpec::from_baseline(method), spec);
+        }
+        let e = MethodSpec::from_json(r#"{"method":"uisa"}"#, Some(MethodKind::Jerlov))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("uisa, not jerlov"), "{e}");
+    }
+
+    #[test]
+    fn a_reference_decides_seathrus_coefficients_unless_chosen() {
+        let coefficients = |spec: MethodSpec| match spec {
+            MethodSpec::Seathru(p) => p.coefficients,
+            other => panic!("{other:?}"),
+        };
+        assert!(matches!(
+            coefficients(MethodSpec::defaults(MethodKind::Seathru, true)),
+            SeathruCoefficients::FromReference(_)
+        ));
+        assert!(matches!(
+            coefficients(MethodSpec::defaults(MethodKind::Seathru, false)),
+            SeathruCoefficients::Sampled(_)
+        ));
+        let given: Map<String, Value> =
+            serde_json::from_str(r#"{"coefficients":{"mode":"given"}}"#).unwrap();
+        let spec = MethodSpec::from_keywords(MethodKind::Seathru, &given, true).unwrap();
+        assert!(matches!(
+            coefficients(spec.clone()),
+            SeathruCoefficients::Given(_)
+        ));
+        assert_eq!(spec.reference_use(), ReferenceUse::Ignored);
+        assert_eq!(
+            MethodSpec::defaults(MethodKind::Seathru, true).reference_use(),
+            ReferenceUse::Required
+        );
+    }
+
+    #[test]
+    fn keywords_set_fields_and_unknown_ones_are_refused() {
+        let kw: Map<String, Value> =
+            serde_json::from_str(r#"{"precision":"bf16","tile":512}"#).unwrap();
+        let MethodSpec::Uwnr(s) = MethodSpec::from_keywords(MethodKind::Uwnr, &kw, true).unwrap()
+        else {
+            panic!()
+        };
+        assert_eq!(
+            (s.precision, s.tile, s.overlap),
+            (Precision::Bf16, 512, 192)
+        );
+        let bad: Map<String, Value> = serde_json::from_str(r#"{"water_typ":"3C"}"#).unwrap();
+        let e = MethodSpec::from_keywords(MethodKind::Jerlov, &bad, false)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("\"water_typ\"") && e.contains("water_type"),
+            "{e}"
+        );
+        let wrong: Map<String, Value> = serde_json::from_str(r#"{"water_type":"12Z"}"#).unwrap();
+        let e = MethodSpec::from_keywords(MethodKind::Jerlov, &wrong, false)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("12Z"), "{e}");
+        let e = MethodSpec::from_keywords(MethodKind::Uwgan, &kw, false)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("does not apply to method uwgan"), "{e}");
+    }
+
+    #[test]
+    fn bf16_off_the_engine_and_bad_tiling_are_refused() {
+        let spec = MethodSpec::Uwnr(UwnrSpec {
+            precision: Precision::Bf16,
+            device: ComputeDevice::Flex,
+            ..UwnrSpec::default()
+        });
+        assert!(
+            spec.validate()
+                .unwrap_err()
+                .to_string()
+                .contains("engine only")
+        );
+        let spec = MethodSpec::Uwnr(UwnrSpec {
+            tile: 100,
+            ..UwnrSpec::default()
+        });
+        assert!(spec.validate().is_err());
+        assert!(
+            MethodSpec::defaults(MethodKind::Uwnr, true)
+                .validate()
+                .is_ok()
+        );
+    }
+}

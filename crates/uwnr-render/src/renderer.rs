@@ -1,0 +1,632 @@
+//! [`Renderer`]: a [`MethodSpec`] loaded (weights read once) and ready to render, and its
+//! per-thread [`Worker`].
+
+use std::path::Path;
+use std::sync::Mutex;
+
+use serde_json::{Map, Value, json};
+use uwnr_baselines::{Method, RenderInput};
+use uwnr_core::Image;
+use uwnr_model::{Backend, DepthResponse, GeneratorConfig, ReferenceStyle, RenderOptions};
+
+use crate::error::{RenderError, Result};
+use crate::haze::{self, HazeParams};
+use crate::method::{
+    ComputeDevice, MethodKind, MethodSpec, Precision, ReferenceUse, UwganSpec, UwnrSpec,
+};
+use crate::record::{GanRecord, NetworkRecord, depth_record, fingerprint};
+
+/// The UWNR network, loaded.
+struct Network {
+    /// Cloned once per worker (the engine's weights are shared, burn's module copied).
+    generator: Mutex<uwnr_model::Network>,
+    config: GeneratorConfig,
+    options: RenderOptions,
+    /// Where the weights came from (a path, or "bundled model").
+    weights: String,
+    /// A fingerprint of the weight bytes.
+    fingerprint: String,
+    precision: Precision,
+}
+
+/// The GAN baseline's generator, loaded.
+struct Gan {
+    /// Cloned once per worker.
+    generator: Mutex<uwnr_gan::Generator>,
+    config: uwnr_gan::GeneratorConfig,
+    device: uwnr_model::Device,
+    weights: String,
+    fingerprint: String,
+}
+
+enum Imp {
+    Uwnr(Box<Network>),
+    Uwgan(Box<Gan>),
+    Baseline(Method),
+    Haze(HazeParams),
+}
+
+/// A render method, loaded. Share it between threads; each takes a [`Worker`].
+pub struct Renderer {
+    spec: MethodSpec,
+    imp: Imp,
+    /// The baseline a render without a reference uses, for a method whose reference is
+    /// optional ([`Renderer::load_keywords`]).
+    without_reference: Option<Method>,
+}
+
+/// What a render is given of its reference.
+#[derive(Clone, Copy, Default)]
+pub struct ReferenceInput<'a> {
+    /// The decoded reference (what the baselines read).
+    pub image: Option<&'a Image>,
+    /// Its style: the light field, and the water for the anchored network (what the network
+    /// reads).
+    pub style: Option<&'a ReferenceStyle>,
+}
+
+/// A reference prepared for a renderer: what its method reads of it, computed once.
+#[derive(Clone, Default)]
+pub struct PreparedReference {
+    /// The decoded image, kept for methods that read it.
+    pub image: Option<Image>,
+    /// The style, computed for the network.
+    pub style: Option<ReferenceStyle>,
+}
+
+impl PreparedReference {
+    /// The reference as a render takes it.
+    #[must_use]
+    pub fn input(&self) -> ReferenceInput<'_> {
+        ReferenceInput {
+            image: self.image.as_ref(),
+            style: self.style.as_ref(),
+        }
+    }
+}
+
+/// A rendered image and the parameters to record with it.
+pub struct Rendered {
+    /// The underwater image, the clean image's size.
+    pub image: Image,
+    /// What made it (weights, drawn parameters, depth response).
+    pub params: Value,
+}
+
+impl Renderer {
+    /// Loads `spec`: reads and checks its weights (the bundled model when it names none).
+    pub fn load(spec: MethodSpec) -> Result<Self> {
+        spec.validate()?;
+        let imp = match &spec {
+            MethodSpec::Uwnr(s) => Imp::Uwnr(Box::new(load_network(s)?)),
+            MethodSpec::Uwgan(s) => Imp::Uwgan(Box::new(load_gan(s)?)),
+            MethodSpec::Haze(p) => Imp::Haze(p.clone()),
+            MethodSpec::Jerlov(_)
+            | MethodSpec::Uisa(_)
+            | MethodSpec::Seathru(_)
+            | MethodSpec::Reinhard(_) => Imp::Baseline(spec.baseline().ok_or_else(|| {
+                RenderError::Invalid(format!("{} is not a baseline", spec.name()))
+            })?),
+        };
+        Ok(Self {
+            spec,
+            imp,
+            without_reference: None,
+        })
+    }
+
+    /// Loads method `kind` with `keywords` ([`MethodSpec::from_keywords`]) for renders that
+    /// may or may not have a reference, each call deciding: Sea-thru with no coefficients
+    /// chosen fits them to the reference of a render that has one, and samples them otherwise.
+    pub fn load_keywords(kind: MethodKind, keywords: &Map<String, Value>) -> Result<Self> {
+        let with = MethodSpec::from_keywords(kind, keywords, true)?;
+        let without = MethodSpec::from_keywords(kind, keywords, false)?;
+        let mut renderer = Self::load(with.clone())?;
+        if without != with {
+            renderer.without_reference = without.baseline();
+        }
+        Ok(renderer)
+    }
+
+    /// The network `generator` as a renderer with `options`; `weights` names the weights'
+    /// origin and `weight_bytes` are fingerprinted into the recorded settings.
+    #[must_use]
+    pub fn network(
+        generator: uwnr_model::Network,
+        options: RenderOptions,
+        weights: String,
+        weight_bytes: &[u8],
+    ) -> Self {
+        let precision = if generator.is_bf16() {
+            Precision::Bf16
+        } else {
+            Precision::F32
+        };
+        let spec = MethodSpec::Uwnr(UwnrSpec {
+            precision,
+            max_whole_pixels: options.max_tile_pixels,
+            tile: options.tile,
+            overlap: options.overlap,
+            ..UwnrSpec::default()
+        });
+        Self {
+            spec,
+            imp: Imp::Uwnr(Box::new(Network {
+                config: *generator.config(),
+                generator: Mutex::new(generator),
+                options,
+                weights,
+                fingerprint: fingerprint(weight_bytes),
+                precision,
+            })),
+            without_reference: None,
+        }
+    }
+
+    /// A baseline of `uwnr_baselines` as a renderer.
+    #[must_use]
+    pub fn baseline(method: Method) -> Self {
+        Self {
+            spec: MethodSpec::from_baseline(method.clone()),
+            imp: Imp::Baseline(method),
+            without_reference: None,
+        }
+    }
+
+    /// The method and its settings.
+    #[must_use]
+    pub fn spec(&self) -> &MethodSpec {
+        &self.spec
+    }
+
+    /// Which method renders.
+    #[must_use]
+    pub fn kind(&self) -> MethodKind {
+        self.spec.kind()
+    }
+
+    /// The method's name (`uwnr`, `uwgan`, `jerlov`, ...).
+    #[must_use]
+    pub fn name(&self) -> &'static str {
+        self.spec.name()
+    }
+
+    /// What a render does with a reference.
+    #[must_use]
+    pub fn reference_use(&self) -> ReferenceUse {
+        match (self.spec.reference_use(), &self.without_reference) {
+            (ReferenceUse::Required, Some(_)) => ReferenceUse::Optional,
+            (u, _) => u,
+        }
+    }
+
+    /// Whether renders must have a reference.
+    #[must_use]
+    pub fn needs_reference(&self) -> bool {
+        self.reference_use() == ReferenceUse::Required
+    }
+
+    /// Whether renders use a reference when one is given.
+    #[must_use]
+    pub fn uses_reference(&self) -> bool {
+        self.reference_use() != ReferenceUse::Ignored
+    }
+
+    /// The network's config (`None` for the other methods).
+    #[must_use]
+    pub fn generator_config(&self) -> Option<&GeneratorConfig> {
+        match &self.imp {
+            Imp::Uwnr(n) => Some(&n.config),
+            Imp::Uwgan(_) | Imp::Baseline(_) | Imp::Haze(_) => None,
+        }
+    }
+
+    /// Where the weights came from (a path or the bundled model's name), for the networks.
+    #[must_use]
+    pub fn weights_source(&self) -> Option<&str> {
+        match &self.imp {
+            Imp::Uwnr(n) => Some(&n.weights),
+            Imp::Uwgan(g) => Some(&g.weights),
+            Imp::Baseline(_) | Imp::Haze(_) => None,
+        }
+    }
+
+    /// The settings a dataset records and compares on resume: for the networks their weights'
+    /// origin and fingerprint, config and precision (bf16 only; f32 is the old form); for the
+    /// others their spec.
+    pub fn settings_params(&self) -> Result<Value> {
+        let value = match &self.imp {
+            Imp::Uwnr(n) => serde_json::to_value(NetworkRecord {
+                weights: &n.weights,
+                fingerprint: &n.fingerprint,
+                config: &n.config,
+                precision: n.precision,
+            }),
+            Imp::Uwgan(g) => serde_json::to_value(GanRecord {
+                weights: &g.weights,
+                fingerprint: &g.fingerprint,
+                config: &g.config,
+            }),
+            Imp::Baseline(m) => serde_json::to_value(m),
+            Imp::Haze(_) => serde_json::to_value(&self.spec),
+        };
+        value.map_err(|e| RenderError::Invalid(format!("cannot record the method's settings: {e}")))
+    }
+
+    /// The style of reference `img`: for the network its light field in the map its config
+    /// names (and the water, for the anchored variant); the other methods read no light field,
+    /// so the released map is kept for them (what a dataset saves with `--save-lightfield`).
+    pub fn reference_style(&self, img: &Image) -> Result<ReferenceStyle> {
+        match &self.imp {
+            Imp::Uwnr(n) => ReferenceStyle::new(img, &n.config),
+            _ => uwnr_core::lightfield::light_field(img)
+                .map(ReferenceStyle::from_light_field)
+                .map_err(uwnr_model::ModelError::from),
+        }
+        .map_err(|e| RenderError::Failed {
+            context: "style of the reference".into(),
+            reason: e.to_string(),
+        })
+    }
+
+    /// Whether renders read the decoded reference image (the baselines; the network reads its
+    /// style only).
+    #[must_use]
+    pub fn wants_reference_image(&self) -> bool {
+        matches!(self.imp, Imp::Baseline(_))
+    }
+
+    /// What this method reads of reference `img`, computed once for many renders.
+    pub fn prepare_reference(&self, img: Image) -> Result<PreparedReference> {
+        Ok(match &self.imp {
+            Imp::Uwnr(_) => PreparedReference {
+                style: Some(self.reference_style(&img)?),
+                image: None,
+            },
+            Imp::Baseline(_) => PreparedReference {
+                image: Some(img),
+                style: None,
+            },
+            Imp::Uwgan(_) | Imp::Haze(_) => PreparedReference::default(),
+        })
+    }
+
+    /// A per-thread handle (a network is copied so that threads never share one).
+    pub fn worker(&self) -> Result<Worker<'_>> {
+        let poisoned = |what: &str| RenderError::Invalid(format!("the {what}'s lock is poisoned"));
+        Ok(Worker(match &self.imp {
+            Imp::Uwnr(n) => WorkerImp::Uwnr {
+                generator: Box::new(n.generator.lock().map_err(|_| poisoned("network"))?.clone()),
+                net: n,
+            },
+            Imp::Uwgan(g) => WorkerImp::Uwgan {
+                generator: Box::new(
+                    g.generator
+                        .lock()
+                        .map_err(|_| poisoned("generator"))?
+                        .clone(),
+                ),
+                gan: g,
+            },
+            Imp::Baseline(m) => WorkerImp::Baseline {
+                method: m,
+                without_reference: self.without_reference.as_ref(),
+            },
+            Imp::Haze(p) => WorkerImp::Haze(p),
+        }))
+    }
+
+    /// Test hook: holds the network's lock (poisoning it when the holder panics).
+    #[doc(hidden)]
+    pub fn lock_network_for_test(&self) -> Option<std::sync::MutexGuard<'_, uwnr_model::Network>> {
+        match &self.imp {
+            Imp::Uwnr(n) => n.generator.lock().ok(),
+            _ => None,
+        }
+    }
+}
+
+enum WorkerImp<'a> {
+    Uwnr {
+        generator: Box<uwnr_model::Network>,
+        net: &'a Network,
+    },
+    Uwgan {
+        generator: Box<uwnr_gan::Generator>,
+        gan: &'a Gan,
+    },
+    Baseline {
+        method: &'a Method,
+        without_reference: Option<&'a Method>,
+    },
+    Haze(&'a HazeParams),
+}
+
+/// A renderer as one thread holds it.
+pub struct Worker<'a>(WorkerImp<'a>);
+
+impl Worker<'_> {
+    /// Renders `clean` over `depth` (1 channel, its size, larger = farther) after `reference`;
+    /// `response` is how the network responds to the depth (what its values stand for, how far
+    /// they are trusted), recorded with its renders; the other methods read the map with their
+    /// own scales. `seed` draws every random parameter.
+    pub fn render(
+        &self,
+        clean: &Image,
+        depth: &Image,
+        response: &DepthResponse,
+        reference: Option<ReferenceInput<'_>>,
+        seed: u64,
+    ) -> Result<Rendered> {
+        let reference = reference.unwrap_or_default();
+        match &self.0 {
+            WorkerImp::Uwnr { generator, net } => {
+                let style = reference.style.ok_or(RenderError::NeedsReference {
+                    method: MethodKind::Uwnr,
+                })?;
+                let options = RenderOptions {
+                    depth: *response,
+                    ..net.options
+                };
+                let image = generator
+                    .render(clean, depth, style, &options)
+                    .map_err(|e| failed("rendering", e))?;
+                Ok(Rendered {
+                    image,
+                    params: json!({ "weights": net.weights, "depth": depth_record(response) }),
+                })
+            }
+            WorkerImp::Uwgan { generator, gan } => {
+                let (image, v) =
+                    uwnr_gan::render_with_values(generator, clean, depth, seed, &gan.device)
+                        .map_err(|e| failed("rendering with uwgan", e))?;
+                Ok(Rendered {
+                    image,
+                    params: json!({
+                        "weights": gan.weights,
+                        "z_seed": seed,
+                        "beta": v.beta,
+                        "backlight": v.backlight,
+                        "vignette": v.vignette,
+                        "gain": v.gain,
+                    }),
+                })
+            }
+            WorkerImp::Baseline {
+                method,
+                without_reference,
+            } => {
+                let method = match (reference.image, without_reference) {
+                    (None, Some(m)) => m,
+                    _ => method,
+                };
+                if method.needs_reference() && reference.image.is_none() {
+                    return Err(RenderError::NeedsReference {
+                        method: MethodSpec::from_baseline((*method).clone()).kind(),
+                    });
+                }
+                let input = RenderInput {
+                    clean,
+                    depth,
+                    reference: reference.image,
+                };
+                let rendered = uwnr_baselines::render(method, &input, seed)
+                    .map_err(|e| failed(&format!("rendering with {}", method.name()), e))?;
+                Ok(Rendered {
+                    image: rendered.image,
+                    params: rendered.params,
+                })
+            }
+            WorkerImp::Haze(p) => {
+                let (image, params) = haze::render(p, clean, depth)?;
+                Ok(Rendered { image, params })
+            }
+        }
+    }
+}
+
+fn failed(context: &str, e: impl std::fmt::Display) -> RenderError {
+    RenderError::Failed {
+        context: context.into(),
+        reason: e.to_string(),
+    }
+}
+
+/// What runs the network: the engine (at `precision`) or burn on the named device.
+fn backend(device: ComputeDevice, precision: Precision) -> Result<Backend> {
+    match (device, precision) {
+        (ComputeDevice::Engine, Precision::F32) => Ok(Backend::Engine),
+        (ComputeDevice::Engine, Precision::Bf16) => Ok(Backend::EngineBf16),
+        (d, Precision::F32) => {
+            uwnr_model::backend_from_name(d.name()).map_err(|e| RenderError::Invalid(e.to_string()))
+        }
+        (d, Precision::Bf16) => Err(RenderError::Invalid(format!(
+            "bf16 precision runs on the engine only, not on {}",
+            d.name()
+        ))),
+    }
+}
+
+const NO_BUNDLED_MODEL: &str =
+    "this build has no bundled model: give weights (safetensors or the authors' checkpoint)";
+
+fn weights_error(source: &str, e: impl std::fmt::Display) -> RenderError {
+    RenderError::Weights {
+        source_name: source.to_string(),
+        reason: e.to_string(),
+    }
+}
+
+fn load_network(s: &UwnrSpec) -> Result<Network> {
+    let backend = backend(s.device, s.precision)?;
+    let (network, bytes, weights) = match &s.weights {
+        Some(path) => {
+            let source = path.display().to_string();
+            let (network, _info) =
+                uwnr_model::Network::load(path, &backend).map_err(|e| weights_error(&source, e))?;
+            let bytes = read(path, &source)?;
+            (network, bytes, source)
+        }
+        None => {
+            let bytes = uwnr_model::bundled_weights()
+                .ok_or_else(|| RenderError::Invalid(NO_BUNDLED_MODEL.into()))?;
+            let source = uwnr_model::BUNDLED_MODEL_NAME.to_string();
+            let (network, _info) = uwnr_model::Network::load_from_bytes(bytes, &backend)
+                .map_err(|e| weights_error(&source, e))?;
+            (network, bytes.to_vec(), source)
+        }
+    };
+    Ok(Network {
+        config: *network.config(),
+        generator: Mutex::new(network),
+        options: s.render_options(),
+        weights,
+        fingerprint: fingerprint(&bytes),
+        precision: s.precision,
+    })
+}
+
+fn read(path: &Path, source: &str) -> Result<Vec<u8>> {
+    std::fs::read(path).map_err(|e| weights_error(source, e))
+}
+
+fn load_gan(s: &UwganSpec) -> Result<Gan> {
+    // The generator runs on burn: the engine's name means burn's CPU backend here.
+    let name = match s.device {
+        ComputeDevice::Engine | ComputeDevice::Flex => "flex",
+        ComputeDevice::Tch => "tch",
+    };
+    let device =
+        uwnr_model::device_from_name(name).map_err(|e| RenderError::Invalid(e.to_string()))?;
+    let (generator, bytes, weights) = uwnr_gan::generator_or_bundled(s.weights.as_deref(), &device)
+        .map_err(|e| failed("loading the UWGAN generator", e))?;
+    Ok(Gan {
+        config: generator.config.clone(),
+        generator: Mutex::new(generator),
+        device,
+        fingerprint: fingerprint(&bytes),
+        weights,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tiny_network(backend: &Backend) -> uwnr_model::Network {
+        let config = GeneratorConfig::with_base_width(8);
+        let generator = config.init(&uwnr_model::Device::flex()).unwrap();
+        uwnr_model::Network::from_generator(&generator, &config, backend).unwrap()
+    }
+
+    #[test]
+    fn bf16_products_are_recorded_and_f32_settings_keep_their_old_form() {
+        let params = |backend: &Backend| {
+            Renderer::network(
+                tiny_network(backend),
+                RenderOptions::default(),
+                "w".into(),
+                b"x",
+            )
+            .settings_params()
+            .unwrap()
+        };
+        let f32 = params(&Backend::Engine);
+        let bf16 = params(&Backend::EngineBf16);
+        assert!(f32.get("precision").is_none(), "{f32}");
+        assert_eq!(bf16["precision"], "bf16");
+        assert_ne!(f32, bf16, "a resume with the other precision is refused");
+        let mut without = bf16.clone();
+        without.as_object_mut().unwrap().remove("precision");
+        assert_eq!(without, f32, "nothing else differs");
+    }
+
+    #[test]
+    fn baselines_record_their_method_json_and_haze_its_spec() {
+        let r = Renderer::load(MethodSpec::defaults(MethodKind::Reinhard, true)).unwrap();
+        assert_eq!(
+            r.settings_params().unwrap(),
+            serde_json::to_value(r.spec().baseline().unwrap()).unwrap()
+        );
+        assert_eq!(r.reference_use(), ReferenceUse::Required);
+        let h = Renderer::load(MethodSpec::defaults(MethodKind::Haze, false)).unwrap();
+        assert_eq!(h.settings_params().unwrap()["method"], "haze");
+        assert_eq!(h.reference_use(), ReferenceUse::Ignored);
+    }
+
+    #[test]
+    fn an_optional_reference_is_used_when_given_and_sampled_without() {
+        let r = Renderer::load_keywords(MethodKind::Seathru, &Map::new()).unwrap();
+        assert_eq!(r.reference_use(), ReferenceUse::Optional);
+        let clean = Image::filled(16, 12, 3, 0.5);
+        let depth = Image::filled(16, 12, 1, 0.5);
+        let response = DepthResponse::default();
+        let worker = r.worker().unwrap();
+        let without = worker.render(&clean, &depth, &response, None, 3).unwrap();
+        assert_eq!(without.params["coefficients"]["mode"], "sampled");
+        let given: Map<String, Value> =
+            serde_json::from_str(r#"{"coefficients":{"mode":"sampled"}}"#).unwrap();
+        let sampled = Renderer::load_keywords(MethodKind::Seathru, &given).unwrap();
+        assert_eq!(sampled.reference_use(), ReferenceUse::Ignored);
+        let needs = Renderer::load(MethodSpec::defaults(MethodKind::Uisa, true)).unwrap();
+        let e = needs
+            .worker()
+            .unwrap()
+            .render(&clean, &depth, &response, None, 3)
+            .err()
+            .unwrap();
+        assert!(
+            matches!(
+                e,
+                RenderError::NeedsReference {
+                    method: MethodKind::Uisa
+                }
+            ),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn the_network_reads_the_style_the_baselines_the_image() {
+        let net = Renderer::network(
+            tiny_network(&Backend::Engine),
+            RenderOptions::default(),
+            "w".into(),
+            b"",
+        );
+        let reference = Image::filled(40, 30, 3, 0.3);
+        let prepared = net.prepare_reference(reference.clone()).unwrap();
+        assert!(prepared.style.is_some() && prepared.image.is_none());
+        let clean = Image::filled(32, 32, 3, 0.5);
+        let depth = Image::filled(32, 32, 1, 0.5);
+        let out = net
+            .worker()
+            .unwrap()
+            .render(
+                &clean,
+                &depth,
+                &DepthResponse::default(),
+                Some(prepared.input()),
+                0,
+            )
+            .unwrap();
+        assert_eq!(out.image.size(), (32, 32));
+        assert_eq!(out.params["weights"], "w");
+        let reinhard = Renderer::load(MethodSpec::defaults(MethodKind::Reinhard, true)).unwrap();
+        let prepared = reinhard.prepare_reference(reference).unwrap();
+        assert!(prepared.image.is_some() && prepared.style.is_none());
+    }
+
+    #[test]
+    fn missing_weights_are_one_clear_error() {
+        let spec = MethodSpec::Uwnr(UwnrSpec {
+            weights: Some("no/such/weights.safetensors".into()),
+            ..UwnrSpec::default()
+        });
+        let e = Renderer::load(spec).err().unwrap().to_string();
+        assert!(
+            e.starts_with("loading weights no/such/weights.safetensors"),
+            "{e}"
+        );
+    }
+}
