@@ -30,8 +30,7 @@ mod winograd;
 
 pub use error::{EngineError, Result};
 pub use kernels::{Act, Isa, Precision};
-pub use network::{
-    ConvAlgo, EngineOptions, Generator, LayerBench, LayerKind, Means, SIZE_MULTIPLE,
-};
+pub use network::bench::{LayerBench, LayerKind};
+pub use network::{ConvAlgo, EngineOptions, Generator, Means, SIZE_MULTIPLE};
 pub use tensor::Planar;
 pub use weights::{BlockWeights, ConvWeights, DownWeights, GeneratorWeights, LEVELS};

@@ -5,13 +5,11 @@
 //! channels and widths 64/128/256/512 down the encoder. Here the first width is `base_width`
 //! and the others double from it, so a narrow network (width 8) for tests is a config change.
 
-use burn::tensor::Device;
 use serde::{Deserialize, Serialize};
 pub use uwnr_core::lightfield::LightFieldMap;
 
 use crate::error::{ModelError, Result};
-use crate::generator::Generator;
-pub use crate::style::Variant;
+pub use crate::variant::Variant;
 
 /// Input channels of the released network: clean RGB (3), depth (1), light-field map (3).
 pub const PAPER_IN_CHANNELS: usize = 7;
@@ -162,15 +160,6 @@ impl GeneratorConfig {
     #[must_use]
     pub fn decoder_out_width(&self) -> usize {
         self.base_width / 2
-    }
-
-    /// Builds a generator with the released training script's initialisation: conv weights
-    /// N(0, 0.02) (`weights_init_normal` in `myutils/utils.py`), biases left at PyTorch's
-    /// default U(-1/sqrt(fan_in), 1/sqrt(fan_in)) because that function does not touch them.
-    /// Seed the device (`device.seed(..)`) first for reproducible weights.
-    pub fn init(&self, device: &Device) -> Result<Generator> {
-        self.validate()?;
-        Ok(Generator::init(self, device))
     }
 }
 

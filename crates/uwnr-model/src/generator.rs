@@ -25,7 +25,7 @@ use burn::tensor::{Device, Tensor};
 
 use crate::config::{ATTENTION_REDUCTION, GeneratorConfig, LEVELS};
 use crate::error::{ModelError, Result};
-use crate::style::Variant;
+use crate::variant::Variant;
 
 /// Negative slope of every LeakyReLU: FSU2.py calls `nn.LeakyReLU()` without an argument,
 /// i.e. PyTorch's default 0.01.
@@ -298,6 +298,17 @@ enum MeanSource<'a> {
     Own,
     /// Use these means (one per block) instead.
     Given(&'a ChannelMeans),
+}
+
+impl GeneratorConfig {
+    /// Builds a generator with the released training script's initialisation: conv weights
+    /// N(0, 0.02) (`weights_init_normal` in `myutils/utils.py`), biases left at PyTorch's
+    /// default U(-1/sqrt(fan_in), 1/sqrt(fan_in)) because that function does not touch them.
+    /// Seed the device (`device.seed(..)`) first for reproducible weights.
+    pub fn init(&self, device: &Device) -> Result<Generator> {
+        self.validate()?;
+        Ok(Generator::init(self, device))
+    }
 }
 
 impl Generator {

@@ -13,6 +13,7 @@ pub mod generator;
 pub mod infer;
 pub mod network;
 pub mod style;
+mod variant;
 pub mod weights;
 
 pub use bundled::{BUNDLED_MODEL_NAME, bundled_weights};

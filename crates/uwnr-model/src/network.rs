@@ -7,17 +7,17 @@ use std::path::Path;
 use std::sync::Arc;
 
 use uwnr_core::Image;
-use uwnr_engine::{ConvWeights, EngineOptions, GeneratorWeights, Precision};
+use uwnr_engine::{EngineOptions, Precision};
 
-use crate::config::{ATTENTION_REDUCTION, GeneratorConfig, LEVELS};
+use crate::config::GeneratorConfig;
 use crate::error::{ModelError, Result};
 use crate::generator::Generator;
 use crate::infer::{BurnForward, RenderOptions, render_with};
 use crate::style::ReferenceStyle;
+pub use crate::weights::engine_weights;
 use crate::weights::{
-    DOWN_PREFIXES, LoadedWeights, NamedTensor, TensorMap, UNUSED_NORM_MARKER, UP_PREFIXES,
-    WeightsInfo, generator_from_tensors, generator_to_tensors, read_weights,
-    read_weights_from_bytes,
+    LoadedWeights, TensorMap, WeightsInfo, generator_from_tensors, generator_to_tensors,
+    read_weights, read_weights_from_bytes,
 };
 
 /// Which implementation runs the generator.
@@ -212,85 +212,5 @@ impl Network {
     /// The style of the underwater image `reference` for this network ([`ReferenceStyle::new`]).
     pub fn style(&self, reference: &Image) -> Result<ReferenceStyle> {
         ReferenceStyle::new(reference, &self.config)
-    }
-}
-
-/// The engine's weights for `config` from a state dict; every key but the unused norms must
-/// be consumed, with the shapes the config implies.
-pub fn engine_weights(
-    config: &GeneratorConfig,
-    tensors: TensorMap,
-) -> Result<(GeneratorWeights, Vec<String>)> {
-    config.validate()?;
-    let mut src = Source(tensors);
-    let mut cin = config.in_channels;
-    let mut downs = Vec::with_capacity(LEVELS);
-    for (level, prefix) in DOWN_PREFIXES.iter().enumerate() {
-        let c = config.level_width(level);
-        let r = c / ATTENTION_REDUCTION;
-        let b = format!("{prefix}.mpconv.2");
-        downs.push(uwnr_engine::DownWeights {
-            conv: src.conv(&format!("{prefix}.mpconv.0"), cin, c, 3)?,
-            block: uwnr_engine::BlockWeights {
-                conk3: src.conv(&format!("{b}.conk3"), c, c, 3)?,
-                conk1: src.conv(&format!("{b}.conk1"), c, c, 1)?,
-                sa_reduce: src.conv(&format!("{b}.SA.spatial_pool.0"), c, r, 1)?,
-                sa_expand: src.conv(&format!("{b}.SA.spatial_pool.2"), r, 1, 1)?,
-                ca_reduce: src.conv(&format!("{b}.CA.channel_map.0"), c, r, 1)?,
-                ca_expand: src.conv(&format!("{b}.CA.channel_map.2"), r, c, 1)?,
-            },
-        });
-        cin = c;
-    }
-    let mut ups = Vec::with_capacity(LEVELS);
-    for (i, prefix) in UP_PREFIXES.iter().enumerate() {
-        let c = config.level_width(LEVELS - 1 - i);
-        ups.push(src.conv(&format!("{prefix}.up.0"), c, 2 * c, 3)?);
-    }
-    let out = src.conv("out.0", config.decoder_out_width(), config.out_channels, 3)?;
-    let mut ignored = Vec::new();
-    for key in src.0.into_keys() {
-        if key.contains(UNUSED_NORM_MARKER) {
-            ignored.push(key);
-        } else {
-            return Err(ModelError::UnexpectedKey { key });
-        }
-    }
-    let levels =
-        |n: usize| ModelError::InvalidOptions(format!("{n} levels built, expected {LEVELS}"));
-    let weights = GeneratorWeights {
-        downs: downs.try_into().map_err(|v: Vec<_>| levels(v.len()))?,
-        ups: ups.try_into().map_err(|v: Vec<_>| levels(v.len()))?,
-        out,
-    };
-    Ok((weights, ignored))
-}
-
-struct Source(TensorMap);
-
-impl Source {
-    fn take(&mut self, key: &str, expected: &[usize]) -> Result<Vec<f32>> {
-        let NamedTensor { shape, data } =
-            self.0.remove(key).ok_or_else(|| ModelError::MissingKey {
-                key: key.to_string(),
-            })?;
-        if shape != expected {
-            return Err(ModelError::ShapeMismatch {
-                key: key.to_string(),
-                expected: expected.to_vec(),
-                got: shape,
-            });
-        }
-        Ok(data)
-    }
-
-    fn conv(&mut self, prefix: &str, cin: usize, cout: usize, k: usize) -> Result<ConvWeights> {
-        Ok(ConvWeights {
-            cout,
-            cin,
-            k,
-            weight: self.take(&format!("{prefix}.weight"), &[cout, cin, k, k])?,
-            bias: self.take(&format!("{prefix}.bias"), &[cout])?,
-        })
     }
 }

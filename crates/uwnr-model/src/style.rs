@@ -98,33 +98,8 @@ use uwnr_core::resize::{fit_within, resize_bilinear};
 use crate::config::GeneratorConfig;
 use crate::error::{ModelError, Result};
 
-/// What the network's input and output planes mean.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Variant {
-    /// The released network: clean RGB, depth, light field in; the underwater RGB image out.
-    #[default]
-    Paper,
-    /// Clean RGB, light field and the colour-transfer anchor in; a smooth gain and offset on
-    /// the anchor out, followed by the depth-driven image-formation stage (module doc).
-    Anchored,
-}
+pub use crate::variant::{ANCHORED_IN_CHANNELS, ANCHORED_OUT_CHANNELS, Variant};
 
-impl Variant {
-    /// Input and output planes of the network body.
-    #[must_use]
-    pub fn channels(self) -> (usize, usize) {
-        match self {
-            Self::Paper => (7, 3),
-            Self::Anchored => (ANCHORED_IN_CHANNELS, ANCHORED_OUT_CHANNELS),
-        }
-    }
-}
-
-/// Input planes of the anchored network: clean RGB, light field, anchor.
-pub const ANCHORED_IN_CHANNELS: usize = 9;
-/// Output planes of the anchored network: gain (3) and offset (3).
-pub const ANCHORED_OUT_CHANNELS: usize = 6;
 /// The colour space of the anchor's statistics transfer.
 pub const ANCHOR_SPACE: ColourSpace = ColourSpace::LAlphaBeta;
 /// Blur of the gain and offset planes, in pixels.

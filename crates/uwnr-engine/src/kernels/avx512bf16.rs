@@ -10,7 +10,8 @@ use std::arch::x86_64::{
     _mm512_storeu_si512,
 };
 
-use super::{Tile, bf16, epilogue};
+use super::bf16_bits::round;
+use super::{Tile, epilogue};
 
 const MR: usize = 12;
 const NR: usize = 32;
@@ -79,7 +80,8 @@ unsafe fn tile_m<const M: usize>(t: &Tile<'_, u16>) {
     unsafe { epilogue::<NR, _>(t, &mut buf) };
 }
 
-/// [`bf16::round_run`] with `vcvtne2ps2bf16`, 32 values at a time.
+/// The native path of `bf16::round_run`: `vcvtne2ps2bf16`, 32 values at a time, the tail by
+/// [`round`].
 ///
 /// # Safety
 /// The CPU must have AVX-512F and AVX512_BF16; `dst.len() >= src.len()`.
@@ -101,7 +103,7 @@ pub(super) unsafe fn round_run(src: &[f32], dst: &mut [u16]) {
         i += 2 * LANES;
     }
     for (d, &s) in dst[whole..n].iter_mut().zip(&src[whole..]) {
-        *d = bf16::round(s);
+        *d = round(s);
     }
     dst[n..].fill(0);
 }

@@ -1,6 +1,6 @@
-//! bf16 operands for the products: the rounding (f32 to bf16, round to nearest even, as
-//! `vcvtne2ps2bf16`), the packing of `B` in the pairs `vdpbf16ps` reads, and the emulated
-//! kernel that runs anywhere.
+//! bf16 operands for the products: the rounding of runs (f32 to bf16, round to nearest even, as
+//! `vcvtne2ps2bf16`; the scalar rule is [`super::bf16_bits`]), the packing of `B` in the pairs
+//! `vdpbf16ps` reads, and the emulated kernel that runs anywhere.
 //!
 //! bf16 is the upper half of an f32: 8 exponent bits, 8 significant bits (7 stored), so a
 //! rounded value is within a relative `u = 2^-8` of the f32 one. `vdpbf16ps` multiplies the
@@ -15,27 +15,8 @@
 //! `B` is `[k / 2][NR][2]`: for each pair of `k`, the `NR` columns' two values side by side,
 //! so one 32-bit lane of a `B` vector is one column's pair.
 
+use super::bf16_bits::{round, widen};
 use super::{Isa, MAX_NR, Tile, epilogue};
-
-/// `x` rounded to the nearest bf16, ties to even (NaN stays NaN, quietened).
-#[inline(always)]
-#[must_use]
-pub fn round(x: f32) -> u16 {
-    let b = x.to_bits();
-    if x.is_nan() {
-        return ((b >> 16) | 0x40) as u16;
-    }
-    // Adding 0x7fff plus the lowest kept bit carries into the kept half exactly when the
-    // dropped half is above one half, or equal to it with an odd kept half.
-    ((b + 0x7fff + ((b >> 16) & 1)) >> 16) as u16
-}
-
-/// The f32 value of bf16 bits `h` (exact).
-#[inline(always)]
-#[must_use]
-pub fn widen(h: u16) -> f32 {
-    f32::from_bits(u32::from(h) << 16)
-}
 
 /// Whether this CPU has AVX512_BF16 (with AVX-512F).
 #[must_use]
@@ -191,33 +172,6 @@ pub(crate) fn dot_bound(k: usize) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn rounding_is_to_nearest_even() {
-        // 1 + 2^-8 is halfway between 1 and 1 + 2^-7: ties to the even 1.
-        assert_eq!(round(1.0 + 2f32.powi(-8)), round(1.0));
-        // 1 + 3 * 2^-8 is halfway between 1 + 2^-7 (odd) and 1 + 2^-6: up to the even one.
-        assert_eq!(widen(round(1.0 + 3.0 * 2f32.powi(-8))), 1.0 + 2f32.powi(-6));
-        // Just above halfway rounds up.
-        assert_eq!(
-            widen(round(1.0 + 2f32.powi(-8) + 2f32.powi(-20))),
-            1.0 + 2f32.powi(-7)
-        );
-        assert_eq!(widen(round(-2.5)), -2.5);
-        assert!(widen(round(f32::NAN)).is_nan());
-        assert_eq!(widen(round(f32::INFINITY)), f32::INFINITY);
-        assert_eq!(widen(round(f32::MAX)), f32::INFINITY);
-        // Relative error at most 2^-8 over a sweep of magnitudes.
-        let mut x = 1e-30f32;
-        while x < 1e30 {
-            for s in [1.0f32, -1.0] {
-                let v = s * x;
-                let rel = ((widen(round(v)) - v) / v).abs();
-                assert!(rel <= 2f32.powi(-8), "{v}: {rel}");
-            }
-            x *= 1.013;
-        }
-    }
 
     #[test]
     fn native_rounding_matches_the_portable_one() {

@@ -25,6 +25,7 @@ mod avx512;
 #[cfg(target_arch = "x86_64")]
 mod avx512bf16;
 pub(crate) mod bf16;
+mod bf16_bits;
 mod portable;
 
 /// Largest tile width of any variant.
