@@ -540,6 +540,45 @@ mod tests {
         assert_eq!(read, now);
     }
 
+    /// `config.json` of the defaults, of a run with every run-level field changed, and of a real
+    /// downstream row (`uwnr experiment downstream`), as the code before `RunSettings` (commit
+    /// 966515d) wrote them.
+    const FILES_BEFORE_RUN_SETTINGS: [&str; 3] = [
+        include_str!("../tests/fixtures/config-default.json"),
+        include_str!("../tests/fixtures/config-custom.json"),
+        include_str!("../tests/fixtures/config-downstream-run.json"),
+    ];
+
+    #[test]
+    fn config_files_of_earlier_versions_read_back_to_the_same_json() {
+        for text in FILES_BEFORE_RUN_SETTINGS {
+            let read: EnhanceTrainConfig = serde_json::from_str(text).unwrap();
+            read.validate().unwrap();
+            let written: serde_json::Value =
+                serde_json::from_str(&read.to_json().unwrap()).unwrap();
+            let before: serde_json::Value = serde_json::from_str(text).unwrap();
+            assert_eq!(written, before, "same keys and values");
+        }
+        let default: EnhanceTrainConfig =
+            serde_json::from_str(FILES_BEFORE_RUN_SETTINGS[0]).unwrap();
+        assert_eq!(default, EnhanceTrainConfig::default());
+        // A partial file takes Shallow-UWnet's own defaults for the run-level fields too.
+        let partial: EnhanceTrainConfig = serde_json::from_str(r#"{"epochs": 3}"#).unwrap();
+        assert_eq!(
+            partial,
+            EnhanceTrainConfig {
+                epochs: 3,
+                ..EnhanceTrainConfig::default()
+            }
+        );
+        for unknown in [r#"{"seeds": 1}"#, r#"{"val_images": 2}"#] {
+            assert!(
+                serde_json::from_str::<EnhanceTrainConfig>(unknown).is_err(),
+                "{unknown}"
+            );
+        }
+    }
+
     #[test]
     fn invalid_fields_are_named() {
         let d = EnhanceTrainConfig::default;

@@ -734,6 +734,42 @@ mod tests {
         assert_eq!(losses("a"), losses("b"));
     }
 
+    /// `config.json` of the defaults and of a run with every run-level field changed, as the
+    /// code before `RunSettings` (commit 966515d) wrote them.
+    const FILES_BEFORE_RUN_SETTINGS: [&str; 2] = [
+        include_str!("../tests/fixtures/config-default.json"),
+        include_str!("../tests/fixtures/config-custom.json"),
+    ];
+
+    #[test]
+    fn config_files_of_earlier_versions_read_back_to_the_same_json() {
+        for text in FILES_BEFORE_RUN_SETTINGS {
+            let read: GanTrainConfig = serde_json::from_str(text).unwrap();
+            read.validate().unwrap();
+            let written: serde_json::Value =
+                serde_json::from_str(&read.to_json().unwrap()).unwrap();
+            let before: serde_json::Value = serde_json::from_str(text).unwrap();
+            assert_eq!(written, before, "same keys and values");
+        }
+        let default: GanTrainConfig = serde_json::from_str(FILES_BEFORE_RUN_SETTINGS[0]).unwrap();
+        assert_eq!(default, GanTrainConfig::default());
+        // A partial file takes the GAN's own defaults for the run-level fields too.
+        let partial: GanTrainConfig = serde_json::from_str(r#"{"epochs": 3}"#).unwrap();
+        assert_eq!(
+            partial,
+            GanTrainConfig {
+                epochs: 3,
+                ..GanTrainConfig::default()
+            }
+        );
+        for unknown in [r#"{"seeds": 1}"#, r#"{"max_pairs_per_dir": 2}"#] {
+            assert!(
+                serde_json::from_str::<GanTrainConfig>(unknown).is_err(),
+                "{unknown}"
+            );
+        }
+    }
+
     #[test]
     fn invalid_fields_are_named() {
         let d = GanTrainConfig::default;
