@@ -8,10 +8,11 @@
 
 use std::path::Path;
 
-use serde::{Deserialize, Serialize};
+use serde::{Deserialize, Deserializer, Serialize};
 use uwnr_depth::DepthSource;
 use uwnr_model::GeneratorConfig;
 use uwnr_model::config::SIZE_MULTIPLE;
+use uwnr_run::RunSettings;
 
 use crate::error::{Result, TrainError};
 
@@ -168,8 +169,6 @@ pub struct TrainConfig {
     pub batch_size: usize,
     /// Side of the square random crops (a multiple of 16).
     pub crop: usize,
-    /// Seed of the weight initialisation, the data order and the augmentation.
-    pub seed: u64,
     /// AdamW learning rate.
     pub lr: f64,
     /// AdamW `(beta_1, beta_2)`.
@@ -198,18 +197,16 @@ pub struct TrainConfig {
     /// Use at most this many pairs of each data folder (the first ones in name order);
     /// `None` = all.
     pub max_pairs_per_dir: Option<usize>,
-    /// Validate every this many epochs (0 = never).
-    pub val_every_epochs: usize,
-    /// Pairs shown in each validation contact sheet.
-    pub val_sheet_pairs: usize,
-    /// Write a row of `metrics.csv` every this many steps (the mean over those steps).
-    pub log_every_steps: usize,
-    /// Write the `last` checkpoint every this many steps (0 = only at epoch ends)...
-    pub checkpoint_every_steps: usize,
-    /// ...or when this many seconds of wall time have passed since the last one (0 = off).
-    pub checkpoint_every_secs: u64,
-    /// Batches prepared ahead of the training step by the loader thread.
-    pub prefetch_batches: usize,
+    /// Seed (of the weight initialisation, the data order and the augmentation), logging,
+    /// validation, checkpoint and prefetch cadence; their keys sit at the top level of the
+    /// JSON.
+    #[serde(flatten, deserialize_with = "run_settings")]
+    pub run: RunSettings,
+}
+
+/// The run settings of a config file, over UWNR's defaults.
+fn run_settings<'de, D: Deserializer<'de>>(d: D) -> std::result::Result<RunSettings, D::Error> {
+    RunSettings::deserialize_over(TrainConfig::default().run, d)
 }
 
 impl Default for TrainConfig {
@@ -219,7 +216,6 @@ impl Default for TrainConfig {
             epochs: PAPER_EPOCHS,
             batch_size: PAPER_BATCH,
             crop: PAPER_CROP,
-            seed: PAPER_SEED,
             lr: PAPER_LR,
             betas: PAPER_BETAS,
             weight_decay: PAPER_WEIGHT_DECAY,
@@ -233,12 +229,7 @@ impl Default for TrainConfig {
             small_images: SmallImagePolicy::default(),
             depth: DepthSource::Builtin,
             max_pairs_per_dir: None,
-            val_every_epochs: 10,
-            val_sheet_pairs: 4,
-            log_every_steps: 10,
-            checkpoint_every_steps: 0,
-            checkpoint_every_secs: 900,
-            prefetch_batches: 2,
+            run: RunSettings::defaults(PAPER_SEED, 10),
         }
     }
 }
@@ -322,12 +313,7 @@ impl TrainConfig {
                 );
             }
         }
-        if self.log_every_steps == 0 {
-            return bad("log_every_steps", "must be at least 1".into());
-        }
-        if self.prefetch_batches == 0 {
-            return bad("prefetch_batches", "must be at least 1".into());
-        }
+        self.run.validate()?;
         Ok(())
     }
 
@@ -443,8 +429,40 @@ mod tests {
         }
         let default: TrainConfig = serde_json::from_str(FILES_BEFORE_RUN_SETTINGS[0]).unwrap();
         assert_eq!(default, TrainConfig::default());
-        let custom: TrainConfig = serde_json::from_str(FILES_BEFORE_RUN_SETTINGS[1]).unwrap();
-        assert_ne!(custom, TrainConfig::default());
+        // The custom file is the config it was written from, and that config made now is
+        // written with the same keys and values.
+        let custom = TrainConfig {
+            epochs: 4,
+            batch_size: 2,
+            crop: 64,
+            lr: 1e-3,
+            decay_start_epoch: Some(1),
+            light_field_loss: LightFieldLoss::Released,
+            perceptual_fallback: PerceptualFallback::None,
+            augment: AugmentConfig {
+                color_cast: Some(ColorCast::default()),
+                ..AugmentConfig::default()
+            },
+            small_images: SmallImagePolicy::Pad,
+            max_pairs_per_dir: Some(12),
+            run: RunSettings {
+                seed: 5,
+                val_every_epochs: 3,
+                log_every_steps: 7,
+                checkpoint_every_steps: 50,
+                checkpoint_every_secs: 60,
+                prefetch_batches: 3,
+                val_sheet_pairs: 2,
+            },
+            ..TrainConfig::default()
+        };
+        let text = FILES_BEFORE_RUN_SETTINGS[1];
+        assert_eq!(serde_json::from_str::<TrainConfig>(text).unwrap(), custom);
+        let written: serde_json::Value = serde_json::from_str(&custom.to_json().unwrap()).unwrap();
+        assert_eq!(
+            written,
+            serde_json::from_str::<serde_json::Value>(text).unwrap()
+        );
         // A partial file takes UWNR's own defaults for the run-level fields too.
         let partial: TrainConfig = serde_json::from_str(r#"{"epochs": 3}"#).unwrap();
         assert_eq!(
