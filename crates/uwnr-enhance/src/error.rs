@@ -50,3 +50,12 @@ pub enum EnhanceError {
 
 /// Result with [`EnhanceError`].
 pub type Result<T> = std::result::Result<T, EnhanceError>;
+
+impl From<uwnr_run::InvalidSetting> for EnhanceError {
+    fn from(e: uwnr_run::InvalidSetting) -> Self {
+        Self::InvalidTrainConfig {
+            field: e.field,
+            reason: e.reason,
+        }
+    }
+}

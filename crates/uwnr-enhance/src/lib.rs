@@ -16,4 +16,4 @@ pub use eval::{EvalReport, ImageScore, evaluate_dir};
 pub use infer::enhance;
 pub use model::{Dropout, ShallowUwnet, ShallowUwnetConfig};
 pub use train::{EnhanceTrainConfig, EnhanceTrainOptions, EnhanceTrainSummary, train};
-pub use uwnr_run::Event;
+pub use uwnr_run::{Event, RunSettings};

@@ -29,14 +29,14 @@ use burn::optim::{AdamConfig, GradientsParams, ModuleOptimizer};
 use burn::tensor::{Device, Tensor, TensorData};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use serde::{Deserialize, Serialize};
+use serde::{Deserialize, Deserializer, Serialize};
 use uwnr_model::weights::SOURCE_METADATA_KEY;
 /// Where and how to train (what is not part of the run's config).
 pub use uwnr_run::TrainOptions as EnhanceTrainOptions;
 use uwnr_run::checkpoint::{BEST, CHECKPOINTS_DIR, LAST, RunState};
 use uwnr_run::folder::{check_run_folder, check_saved_config};
 use uwnr_run::plan::mix64;
-use uwnr_run::{Event, Prepared, Schedule, Scores, Task};
+use uwnr_run::{Event, Prepared, RunSettings, Schedule, Scores, Task};
 use uwnr_train::Vgg19Features;
 use uwnr_train::losses::{Perceptual, ssim_loss};
 
@@ -91,22 +91,11 @@ pub struct EnhanceTrainConfig {
     pub w_mse: f64,
     /// Weight of the perceptual term (VGG19, or its 1 - SSIM stand-in).
     pub w_perceptual: f64,
-    /// Seed of the initial weights, the data order, the crops and the dropout masks.
-    pub seed: u64,
-    /// Validate every this many epochs (0 = never); the last epoch is always validated.
-    pub val_every_epochs: usize,
-    /// Write a row of `metrics.csv` every this many steps (the mean over them).
-    pub log_every_steps: usize,
-    /// Write the `last` checkpoint every this many steps (0 = only at epoch ends, on time and
-    /// when the session ends).
-    pub checkpoint_every_steps: usize,
-    /// Write the `last` checkpoint when this many seconds have passed since the previous one
-    /// (0 = only at epoch ends and when the session ends).
-    pub checkpoint_every_secs: u64,
-    /// Batches prepared ahead of the step on the loader thread.
-    pub prefetch_batches: usize,
-    /// Validation pairs shown in each contact sheet (`val/step-N.png`; 0 = none).
-    pub val_sheet_pairs: usize,
+    /// Seed (of the initial weights, the data order, the crops and the dropout masks), logging,
+    /// validation, checkpoint and prefetch cadence; their keys sit at the top level of the
+    /// JSON.
+    #[serde(flatten, deserialize_with = "run_settings")]
+    pub run: RunSettings,
     /// Use at most this many pairs of each data folder (the first in name order).
     pub max_pairs_per_dir: Option<usize>,
     /// End the run after this many steps in total, its last epoch then partial (at most
@@ -126,17 +115,16 @@ impl Default for EnhanceTrainConfig {
             lr_step_epochs: DEFAULT_LR_STEP_EPOCHS,
             w_mse: 1.0,
             w_perceptual: 1.0,
-            seed: 7,
-            val_every_epochs: 5,
-            log_every_steps: 10,
-            checkpoint_every_steps: 0,
-            checkpoint_every_secs: 900,
-            prefetch_batches: 2,
-            val_sheet_pairs: 4,
+            run: RunSettings::defaults(7, 5),
             max_pairs_per_dir: None,
             total_steps: None,
         }
     }
+}
+
+/// The run settings of a config file, over Shallow-UWnet's defaults.
+fn run_settings<'de, D: Deserializer<'de>>(d: D) -> std::result::Result<RunSettings, D::Error> {
+    RunSettings::deserialize_over(EnhanceTrainConfig::default().run, d)
 }
 
 impl EnhanceTrainConfig {
@@ -171,9 +159,7 @@ impl EnhanceTrainConfig {
         if self.w_mse + self.w_perceptual <= 0.0 {
             return bad("w_mse", "w_mse and w_perceptual cannot both be 0".into());
         }
-        if self.log_every_steps == 0 {
-            return bad("log_every_steps", "must be at least 1".into());
-        }
+        self.run.validate()?;
         if self.max_pairs_per_dir == Some(0) {
             return bad("max_pairs_per_dir", "must be at least 1 when given".into());
         }
@@ -283,7 +269,7 @@ pub fn train(
     )));
     let source = Arc::new(Batches {
         pairs: Arc::new(pairs),
-        seed: cfg.seed,
+        seed: cfg.run.seed,
         batch_size: cfg.batch_size,
         crop: cfg.crop,
     });
@@ -294,18 +280,7 @@ pub fn train(
         perceptual,
         val,
     };
-    let schedule = Schedule {
-        epochs: cfg.epochs,
-        batch_size: cfg.batch_size,
-        total_steps: cfg.total_steps,
-        seed: cfg.seed,
-        log_every_steps: cfg.log_every_steps,
-        val_every_epochs: cfg.val_every_epochs,
-        val_sheet_pairs: cfg.val_sheet_pairs,
-        checkpoint_every_steps: cfg.checkpoint_every_steps,
-        checkpoint_every_secs: cfg.checkpoint_every_secs,
-        prefetch_batches: cfg.prefetch_batches,
-    };
+    let schedule = Schedule::new(&cfg.run, cfg.epochs, cfg.batch_size, cfg.total_steps);
     let session = opts.session();
     let s = uwnr_run::train(
         &task, source, &prepared, &schedule, &session, stop, observer,
@@ -386,8 +361,9 @@ impl Task for EnhanceTask<'_> {
         let shape = [b, IMAGE_CHANNELS, c, c];
         let x = Tensor::<4>::from_data(TensorData::new(batch.input, shape), &self.device);
         let y = Tensor::<4>::from_data(TensorData::new(batch.target, shape), &self.device);
-        let mut rng =
-            ChaCha8Rng::seed_from_u64(mix64(mix64(self.cfg.seed ^ STREAM_DROPOUT) ^ step as u64));
+        let mut rng = ChaCha8Rng::seed_from_u64(mix64(
+            mix64(self.cfg.run.seed ^ STREAM_DROPOUT) ^ step as u64,
+        ));
         let mut dropout = Dropout {
             p: self.cfg.model.dropout,
             rng: &mut rng,
@@ -456,6 +432,7 @@ impl Task for EnhanceTask<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use uwnr_run::folder::read_config_unchanged;
 
     #[test]
     fn default_is_the_released_recipe_with_crops() {
@@ -540,6 +517,30 @@ mod tests {
         assert_eq!(read, now);
     }
 
+    /// The config files of `tests/fixtures/`, as the code before `RunSettings` (commit 966515d)
+    /// wrote them (the defaults; a run with every run-level field changed; a downstream row),
+    /// read back to configs that write the same JSON. The defaults of now are those of then, so
+    /// a new config is written with the same keys and values as before.
+    #[test]
+    fn config_files_of_earlier_versions_read_back_unchanged() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures");
+        let read = |name: &str| read_config_unchanged::<EnhanceTrainConfig>(&dir.join(name));
+        assert_eq!(
+            read("config-default.json").unwrap(),
+            EnhanceTrainConfig::default()
+        );
+        let custom = read("config-custom.json").unwrap();
+        assert_eq!((custom.run.seed, custom.run.prefetch_batches), (11, 4));
+        let row = read("config-downstream-run.json").unwrap();
+        assert_eq!((row.run.seed, row.total_steps), (0, Some(1500)));
+        let partial: EnhanceTrainConfig = serde_json::from_str(r#"{"epochs": 3}"#).unwrap();
+        assert_eq!(
+            partial.run,
+            EnhanceTrainConfig::default().run,
+            "its own defaults"
+        );
+    }
+
     #[test]
     fn invalid_fields_are_named() {
         let d = EnhanceTrainConfig::default;
@@ -578,10 +579,23 @@ mod tests {
             ),
             (
                 EnhanceTrainConfig {
-                    log_every_steps: 0,
+                    run: RunSettings {
+                        log_every_steps: 0,
+                        ..d().run
+                    },
                     ..d()
                 },
                 "log_every_steps",
+            ),
+            (
+                EnhanceTrainConfig {
+                    run: RunSettings {
+                        prefetch_batches: 0,
+                        ..d().run
+                    },
+                    ..d()
+                },
+                "prefetch_batches",
             ),
             (
                 EnhanceTrainConfig {

@@ -222,7 +222,7 @@ fn row_config(spec: &DownstreamSpec, pairs: usize) -> EnhanceTrainConfig {
     cfg.epochs = steps.div_ceil(steps_per_epoch);
     cfg.total_steps = Some(steps);
     cfg.lr_step_epochs = cfg.epochs.div_ceil(LR_DECAYS_PER_RUN + 1).max(1);
-    cfg.seed = spec.seed;
+    cfg.run.seed = spec.seed;
     cfg
 }
 
@@ -630,7 +630,7 @@ mod tests {
             assert_eq!(cfg.total_steps, Some(1500), "{pairs} pairs");
             assert_eq!(cfg.epochs, epochs, "{pairs} pairs");
             assert!(cfg.epochs * (pairs / 4) >= 1500);
-            assert_eq!(cfg.seed, 3);
+            assert_eq!(cfg.run.seed, 3);
         }
         assert_eq!(row_config(&s, 1172).lr_step_epochs, 2);
         assert_eq!(row_config(&spec(1), 10).total_steps, Some(1));

@@ -38,6 +38,15 @@ pub enum GanError {
     Run(#[from] uwnr_run::RunError),
 }
 
+impl From<uwnr_run::InvalidSetting> for GanError {
+    fn from(e: uwnr_run::InvalidSetting) -> Self {
+        Self::InvalidTrainConfig {
+            field: e.field,
+            reason: e.reason,
+        }
+    }
+}
+
 /// Result with [`GanError`].
 pub type Result<T> = std::result::Result<T, GanError>;
 

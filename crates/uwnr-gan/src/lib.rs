@@ -22,7 +22,7 @@ pub use model::{
     Discriminator, DiscriminatorConfig, Gan, GanConfig, Generator, GeneratorConfig, sample_z,
 };
 pub use train::{GanLoss, GanTrainConfig, GanTrainSummary, train};
-pub use uwnr_run::{Event, TrainOptions};
+pub use uwnr_run::{Event, RunSettings, TrainOptions};
 pub use weights::{
     BUNDLED_GAN_NAME, GENERATOR_FILE, bundled_gan_weights, generator_or_bundled, load_generator,
     load_generator_from_bytes, save_generator,

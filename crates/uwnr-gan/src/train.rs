@@ -44,12 +44,12 @@ use std::sync::atomic::AtomicBool;
 
 use burn::optim::{AdamConfig, GradientsParams, ModuleOptimizer};
 use burn::tensor::{Device, Tensor, TensorData};
-use serde::{Deserialize, Serialize};
+use serde::{Deserialize, Deserializer, Serialize};
 use uwnr_core::Image;
 pub use uwnr_run::TrainOptions;
 use uwnr_run::checkpoint::{BEST, CHECKPOINTS_DIR, LAST, RunState};
 use uwnr_run::folder::{check_run_folder, check_saved_config};
-use uwnr_run::{Event, Prepared, Schedule, Scores, Task};
+use uwnr_run::{Event, Prepared, RunSettings, Schedule, Scores, Task};
 
 use crate::data::{self, Batch, Batches, CleanSample, moments};
 use crate::error::{GanError, Result, to_vec};
@@ -125,23 +125,13 @@ pub struct GanTrainConfig {
     pub lr: f64,
     /// Generator updates per discriminator update.
     pub g_steps: usize,
-    /// Seed of the initial weights, the data order, the crops, the references and the codes.
-    pub seed: u64,
     /// Clean images rendered at each validation (the first, in load order; 0 = no validation).
     pub val_images: usize,
-    /// Validate every this many epochs (0 = never); the last epoch is always validated.
-    pub val_every_epochs: usize,
-    /// Write a row of `metrics.csv` every this many steps (the mean over them).
-    pub log_every_steps: usize,
-    /// Write the `last` checkpoint every this many steps (0 = only at epoch ends, on time and
-    /// when the session ends).
-    pub checkpoint_every_steps: usize,
-    /// Write the `last` checkpoint when this many seconds have passed since the previous one.
-    pub checkpoint_every_secs: u64,
-    /// Batches prepared ahead of the step on the loader thread.
-    pub prefetch_batches: usize,
-    /// Validation renders shown in each contact sheet (0 = none).
-    pub val_sheet_pairs: usize,
+    /// Seed (of the initial weights, the data order, the crops, the references and the codes),
+    /// logging, validation, checkpoint and prefetch cadence; their keys sit at the top level of
+    /// the JSON.
+    #[serde(flatten, deserialize_with = "run_settings")]
+    pub run: RunSettings,
     /// Use at most this many images of each folder (the first in name order).
     pub max_images_per_dir: Option<usize>,
     /// End the run after this many steps in total.
@@ -158,18 +148,17 @@ impl Default for GanTrainConfig {
             crop: UWGAN_SIZE,
             lr: UWGAN_LR,
             g_steps: 1,
-            seed: 7,
             val_images: 8,
-            val_every_epochs: 1,
-            log_every_steps: 10,
-            checkpoint_every_steps: 0,
-            checkpoint_every_secs: 900,
-            prefetch_batches: 2,
-            val_sheet_pairs: 4,
+            run: RunSettings::defaults(7, 1),
             max_images_per_dir: None,
             total_steps: None,
         }
     }
+}
+
+/// The run settings of a config file, over the GAN's defaults.
+fn run_settings<'de, D: Deserializer<'de>>(d: D) -> std::result::Result<RunSettings, D::Error> {
+    RunSettings::deserialize_over(GanTrainConfig::default().run, d)
 }
 
 impl GanTrainConfig {
@@ -201,9 +190,7 @@ impl GanTrainConfig {
         if self.g_steps == 0 {
             return bad("g_steps", "must be at least 1".into());
         }
-        if self.log_every_steps == 0 {
-            return bad("log_every_steps", "must be at least 1".into());
-        }
+        self.run.validate()?;
         if self.max_images_per_dir == Some(0) {
             return bad("max_images_per_dir", "must be at least 1 when given".into());
         }
@@ -285,7 +272,7 @@ pub fn train(
     let source = Arc::new(Batches {
         clean: Arc::new(clean),
         references: Arc::new(references),
-        seed: cfg.seed,
+        seed: cfg.run.seed,
         batch_size: cfg.batch_size,
         crop: cfg.crop,
         z_dim: cfg.model.generator.z_dim,
@@ -297,18 +284,7 @@ pub fn train(
         val,
         reference_moments,
     };
-    let schedule = Schedule {
-        epochs: cfg.epochs,
-        batch_size: cfg.batch_size,
-        total_steps: cfg.total_steps,
-        seed: cfg.seed,
-        log_every_steps: cfg.log_every_steps,
-        val_every_epochs: cfg.val_every_epochs,
-        val_sheet_pairs: cfg.val_sheet_pairs,
-        checkpoint_every_steps: cfg.checkpoint_every_steps,
-        checkpoint_every_secs: cfg.checkpoint_every_secs,
-        prefetch_batches: cfg.prefetch_batches,
-    };
+    let schedule = Schedule::new(&cfg.run, cfg.epochs, cfg.batch_size, cfg.total_steps);
     let s = uwnr_run::train(
         &task,
         source,
@@ -524,6 +500,7 @@ mod tests {
     use super::*;
     use crate::model::{DiscriminatorConfig, GeneratorConfig, sample_z};
     use crate::weights::load_generator;
+    use uwnr_run::folder::read_config_unchanged;
 
     /// A config small enough for a few steps on 32x32 images in a debug test.
     fn tiny() -> GanTrainConfig {
@@ -546,9 +523,12 @@ mod tests {
             crop: 32,
             lr: 2e-3,
             val_images: 2,
-            val_sheet_pairs: 2,
-            log_every_steps: 1,
-            checkpoint_every_secs: 0,
+            run: RunSettings {
+                val_sheet_pairs: 2,
+                log_every_steps: 1,
+                checkpoint_every_secs: 0,
+                ..GanTrainConfig::default().run
+            },
             ..GanTrainConfig::default()
         }
     }
@@ -734,6 +714,29 @@ mod tests {
         assert_eq!(losses("a"), losses("b"));
     }
 
+    /// The config files of `tests/fixtures/`, as the code before `RunSettings` (commit 966515d)
+    /// wrote them (the defaults; a run with every run-level field changed), read back to configs
+    /// that write the same JSON. The defaults of now are those of then, so a new config is
+    /// written with the same keys and values as before.
+    #[test]
+    fn config_files_of_earlier_versions_read_back_unchanged() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures");
+        let read = |name: &str| read_config_unchanged::<GanTrainConfig>(&dir.join(name));
+        assert_eq!(
+            read("config-default.json").unwrap(),
+            GanTrainConfig::default()
+        );
+        let custom = read("config-custom.json").unwrap();
+        assert_eq!((custom.run.seed, custom.val_images), (3, 2));
+        let partial: GanTrainConfig = serde_json::from_str(r#"{"epochs": 3}"#).unwrap();
+        assert_eq!(
+            partial.run,
+            GanTrainConfig::default().run,
+            "the GAN's own defaults"
+        );
+        assert!(serde_json::from_str::<GanTrainConfig>(r#"{"max_pairs_per_dir": 2}"#).is_err());
+    }
+
     #[test]
     fn invalid_fields_are_named() {
         let d = GanTrainConfig::default;
@@ -742,6 +745,16 @@ mod tests {
             (GanTrainConfig { crop: 16, ..d() }, "crop"),
             (GanTrainConfig { lr: 0.0, ..d() }, "lr"),
             (GanTrainConfig { g_steps: 0, ..d() }, "g_steps"),
+            (
+                GanTrainConfig {
+                    run: RunSettings {
+                        prefetch_batches: 0,
+                        ..d().run
+                    },
+                    ..d()
+                },
+                "prefetch_batches",
+            ),
             (
                 GanTrainConfig {
                     total_steps: Some(0),

@@ -8,7 +8,9 @@ use std::sync::atomic::AtomicBool;
 
 use burn::tensor::Device;
 use uwnr_gan::model::{DiscriminatorConfig, GeneratorConfig};
-use uwnr_gan::{Event, GanConfig, GanTrainConfig, TrainOptions, load_generator, render};
+use uwnr_gan::{
+    Event, GanConfig, GanTrainConfig, RunSettings, TrainOptions, load_generator, render,
+};
 
 fn shared() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data")
@@ -44,9 +46,12 @@ fn a_few_steps_on_real_rgbd_and_underwater_images() {
         batch_size: 2,
         crop: 64,
         val_images: 2,
-        val_sheet_pairs: 2,
-        log_every_steps: 1,
-        checkpoint_every_secs: 0,
+        run: RunSettings {
+            val_sheet_pairs: 2,
+            log_every_steps: 1,
+            checkpoint_every_secs: 0,
+            ..GanTrainConfig::default().run
+        },
         max_images_per_dir: Some(12),
         ..GanTrainConfig::default()
     };

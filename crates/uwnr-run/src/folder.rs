@@ -115,6 +115,33 @@ pub fn check_saved_config<C: RunConfig>(cfg: &C, run: &Path) -> Result<()> {
     })
 }
 
+/// Reads the `config.json` at `path` as a `C` and checks that `C` writes it back the same: the
+/// same keys and values (their order aside), so that what an earlier version wrote still reads
+/// as the run it was. The error names the keys that would be written differently. The trainers'
+/// tests run it on files their earlier versions wrote.
+pub fn read_config_unchanged<C: RunConfig>(path: &Path) -> Result<C> {
+    let cfg = C::from_json_file(path)?;
+    let text = std::fs::read_to_string(path).map_err(RunError::io(path))?;
+    let bad = |reason: String| RunError::ConfigFile {
+        path: path.to_path_buf(),
+        reason,
+    };
+    // Both sides from JSON text: an f32 written as text reads back as the f64 of its shortest
+    // decimal, not as the f32's exact value that `serde_json::to_value` would give.
+    let value = |text: &str| serde_json::from_str::<serde_json::Value>(text);
+    let before = value(&text).map_err(|e| bad(e.to_string()))?;
+    let now = value(&cfg.to_json()?).map_err(|e| bad(e.to_string()))?;
+    let fields = changed_fields(&before, &now)?;
+    if fields.is_empty() {
+        Ok(cfg)
+    } else {
+        Err(bad(format!(
+            "is not written back the same: {} would change",
+            fields.join(", ")
+        )))
+    }
+}
+
 /// The dotted names of the fields that differ between two configs (e.g. `model.width`). A
 /// config that cannot be serialised is an error, never "no difference".
 pub fn changed_fields<C: Serialize>(a: &C, b: &C) -> Result<Vec<String>> {
@@ -195,6 +222,24 @@ mod tests {
         let mut a = std::collections::BTreeMap::new();
         a.insert((1, 2), 3);
         assert!(changed_fields(&a, &a).is_err());
+    }
+
+    #[test]
+    fn a_config_file_reads_back_unchanged_or_names_what_would_change() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join(CONFIG_FILE);
+        let text = r#"{"lr": 0.1, "model": {"width": 8}, "epochs": 1}"#;
+        std::fs::write(&path, text).unwrap();
+        let read: Cfg = read_config_unchanged(&path).unwrap();
+        assert_eq!(read.model.width, 8);
+        // A key the type does not write back (here: ignored on reading) is named.
+        std::fs::write(
+            &path,
+            r#"{"lr": 0.1, "model": {"width": 8, "depth": 2}, "epochs": 1}"#,
+        )
+        .unwrap();
+        let err = read_config_unchanged::<Cfg>(&path).unwrap_err();
+        assert!(err.to_string().contains("model.depth"), "{err}");
     }
 
     #[test]

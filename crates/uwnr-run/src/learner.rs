@@ -32,6 +32,7 @@ use crate::loader::{BatchSource, Loader};
 use crate::plot::{
     LossSeries, SheetLine, TOTAL_COLOUR, contact_sheet, draw_loss_curves, series_colour,
 };
+use crate::settings::RunSettings;
 
 /// Height of a contact-sheet thumbnail.
 const SHEET_THUMB: usize = 192;
@@ -156,22 +157,27 @@ pub struct Schedule {
     pub batch_size: usize,
     /// End the run after this many steps in total (at most `epochs` whole epochs either way).
     pub total_steps: Option<usize>,
-    /// Seed of the run (recorded in the state; a resume must use the same).
-    pub seed: u64,
-    /// Write a row of `metrics.csv` every this many steps (the mean over them).
-    pub log_every_steps: usize,
-    /// Validate every this many epochs (0 = never); the last epoch is always validated.
-    pub val_every_epochs: usize,
-    /// Pairs shown in each validation contact sheet (0 = none).
-    pub val_sheet_pairs: usize,
-    /// Write the `last` checkpoint every this many steps (0 = only at epoch ends and at the end
-    /// of the session).
-    pub checkpoint_every_steps: usize,
-    /// Write the `last` checkpoint when this many seconds have passed since the previous one
-    /// (0 = never on time).
-    pub checkpoint_every_secs: u64,
-    /// Batches prepared ahead of the step.
-    pub prefetch_batches: usize,
+    /// Seed, logging, validation, checkpoint and prefetch cadence.
+    pub run: RunSettings,
+}
+
+impl Schedule {
+    /// The schedule of a run of `epochs` passes in batches of `batch_size`, ended after
+    /// `total_steps` steps when given, with the config's run settings.
+    #[must_use]
+    pub fn new(
+        run: &RunSettings,
+        epochs: usize,
+        batch_size: usize,
+        total_steps: Option<usize>,
+    ) -> Self {
+        Self {
+            epochs,
+            batch_size,
+            total_steps,
+            run: run.clone(),
+        }
+    }
 }
 
 /// Where and how a trainer runs (what is not part of the run's config): its data, its run
@@ -355,15 +361,15 @@ pub fn train<T: Task>(
             reason: "no checkpoint to resume from".into(),
         })?;
         let (m, o, s) = load_checkpoint(&dir, task.build()?, task.optimizer())?;
-        s.check_resumable(&dir, steps_per_epoch, prepared.pairs, schedule.seed)?;
+        s.check_resumable(&dir, steps_per_epoch, prepared.pairs, schedule.run.seed)?;
         observer(Event::Message(&format!(
             "resuming at step {} (epoch {}, batch {})",
             s.step, s.epoch, s.batch_in_epoch
         )));
         (m, o, s)
     } else {
-        let m = init_seeded(schedule.seed, task.device(), || task.build())?;
-        let state = RunState::start(steps_per_epoch, prepared.pairs, schedule.seed);
+        let m = init_seeded(schedule.run.seed, task.device(), || task.build())?;
+        let state = RunState::start(steps_per_epoch, prepared.pairs, schedule.run.seed);
         (m, task.optimizer(), state)
     };
     let terms = task.loss_terms();
@@ -376,7 +382,7 @@ pub fn train<T: Task>(
         state.epoch,
         state.batch_in_epoch,
         schedule.epochs,
-        schedule.prefetch_batches,
+        schedule.run.prefetch_batches,
     );
     observer(Event::Started {
         step: state.step,
@@ -474,19 +480,25 @@ pub fn train<T: Task>(
             losses: &values,
         });
         summary.losses.push((state.step, values));
-        if state.step.is_multiple_of(schedule.log_every_steps.max(1)) || state.step == total_steps {
+        if state
+            .step
+            .is_multiple_of(schedule.run.log_every_steps.max(1))
+            || state.step == total_steps
+        {
             window.flush(&metrics, state.step, epoch_of_step, lr)?;
         }
-        let mut want_ck = (schedule.checkpoint_every_steps > 0
-            && state.step.is_multiple_of(schedule.checkpoint_every_steps))
-            || (schedule.checkpoint_every_secs > 0
-                && last_ck.elapsed().as_secs() >= schedule.checkpoint_every_secs);
+        let mut want_ck = (schedule.run.checkpoint_every_steps > 0
+            && state
+                .step
+                .is_multiple_of(schedule.run.checkpoint_every_steps))
+            || (schedule.run.checkpoint_every_secs > 0
+                && last_ck.elapsed().as_secs() >= schedule.run.checkpoint_every_secs);
         if state.batch_in_epoch == steps_per_epoch {
             state.epoch += 1;
             state.batch_in_epoch = 0;
             want_ck = true;
-            let due = schedule.val_every_epochs > 0
-                && (state.epoch.is_multiple_of(schedule.val_every_epochs)
+            let due = schedule.run.val_every_epochs > 0
+                && (state.epoch.is_multiple_of(schedule.run.val_every_epochs)
                     || state.epoch == schedule.epochs);
             if due && task.has_validation() {
                 let v = validate(task, &model, &state, schedule, &logs, observer)?;
@@ -548,7 +560,7 @@ fn validate<T: Task>(
     observer: &mut dyn FnMut(Event<'_>),
 ) -> Result<ValResult, T::Error> {
     let t0 = Instant::now();
-    let scores = task.validate(&model.valid(), schedule.val_sheet_pairs)?;
+    let scores = task.validate(&model.valid(), schedule.run.val_sheet_pairs)?;
     let result = ValResult {
         step: state.step,
         epoch: state.epoch,

@@ -12,6 +12,8 @@
 //!   the network's own weights file) and exact resume;
 //! - [`csvlog`], [`plot`]: `metrics.csv`, `val.csv`, `curves.png` and contact sheets;
 //! - [`loader`]: the prefetching batch thread, which keeps a panic's cause;
+//! - [`settings`]: the run-level settings every trainer's config holds ([`RunSettings`]: seed,
+//!   logging, validation, checkpoint and prefetch cadence), checked and scheduled once;
 //! - [`learner`]: the loop ([`train`]), with step and time checkpoint intervals and a clean stop.
 //!
 //! burn appears only where a network is saved, loaded or seeded.
@@ -25,6 +27,7 @@ pub mod loader;
 pub mod pairs;
 pub mod plan;
 pub mod plot;
+pub mod settings;
 
 pub use error::{Result, RunError};
 pub use learner::{
@@ -32,3 +35,4 @@ pub use learner::{
     init_seeded, train,
 };
 pub use loader::BatchSource;
+pub use settings::{InvalidSetting, RunSettings};

@@ -8,10 +8,11 @@
 
 use std::path::Path;
 
-use serde::{Deserialize, Serialize};
+use serde::{Deserialize, Deserializer, Serialize};
 use uwnr_depth::DepthSource;
 use uwnr_model::GeneratorConfig;
 use uwnr_model::config::SIZE_MULTIPLE;
+use uwnr_run::RunSettings;
 
 use crate::error::{Result, TrainError};
 
@@ -168,8 +169,6 @@ pub struct TrainConfig {
     pub batch_size: usize,
     /// Side of the square random crops (a multiple of 16).
     pub crop: usize,
-    /// Seed of the weight initialisation, the data order and the augmentation.
-    pub seed: u64,
     /// AdamW learning rate.
     pub lr: f64,
     /// AdamW `(beta_1, beta_2)`.
@@ -198,18 +197,16 @@ pub struct TrainConfig {
     /// Use at most this many pairs of each data folder (the first ones in name order);
     /// `None` = all.
     pub max_pairs_per_dir: Option<usize>,
-    /// Validate every this many epochs (0 = never).
-    pub val_every_epochs: usize,
-    /// Pairs shown in each validation contact sheet.
-    pub val_sheet_pairs: usize,
-    /// Write a row of `metrics.csv` every this many steps (the mean over those steps).
-    pub log_every_steps: usize,
-    /// Write the `last` checkpoint every this many steps (0 = only at epoch ends)...
-    pub checkpoint_every_steps: usize,
-    /// ...or when this many seconds of wall time have passed since the last one (0 = off).
-    pub checkpoint_every_secs: u64,
-    /// Batches prepared ahead of the training step by the loader thread.
-    pub prefetch_batches: usize,
+    /// Seed (of the weight initialisation, the data order and the augmentation), logging,
+    /// validation, checkpoint and prefetch cadence; their keys sit at the top level of the
+    /// JSON.
+    #[serde(flatten, deserialize_with = "run_settings")]
+    pub run: RunSettings,
+}
+
+/// The run settings of a config file, over UWNR's defaults.
+fn run_settings<'de, D: Deserializer<'de>>(d: D) -> std::result::Result<RunSettings, D::Error> {
+    RunSettings::deserialize_over(TrainConfig::default().run, d)
 }
 
 impl Default for TrainConfig {
@@ -219,7 +216,6 @@ impl Default for TrainConfig {
             epochs: PAPER_EPOCHS,
             batch_size: PAPER_BATCH,
             crop: PAPER_CROP,
-            seed: PAPER_SEED,
             lr: PAPER_LR,
             betas: PAPER_BETAS,
             weight_decay: PAPER_WEIGHT_DECAY,
@@ -233,12 +229,7 @@ impl Default for TrainConfig {
             small_images: SmallImagePolicy::default(),
             depth: DepthSource::Builtin,
             max_pairs_per_dir: None,
-            val_every_epochs: 10,
-            val_sheet_pairs: 4,
-            log_every_steps: 10,
-            checkpoint_every_steps: 0,
-            checkpoint_every_secs: 900,
-            prefetch_batches: 2,
+            run: RunSettings::defaults(PAPER_SEED, 10),
         }
     }
 }
@@ -322,12 +313,7 @@ impl TrainConfig {
                 );
             }
         }
-        if self.log_every_steps == 0 {
-            return bad("log_every_steps", "must be at least 1".into());
-        }
-        if self.prefetch_batches == 0 {
-            return bad("prefetch_batches", "must be at least 1".into());
-        }
+        self.run.validate()?;
         Ok(())
     }
 
@@ -377,6 +363,7 @@ impl TrainConfig {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use uwnr_run::folder::read_config_unchanged;
 
     #[test]
     fn default_is_the_paper_recipe() {
@@ -422,6 +409,26 @@ mod tests {
         assert_eq!(partial.light_field_loss, LightFieldLoss::Released);
         assert_eq!(partial.batch_size, PAPER_BATCH);
         assert!(serde_json::from_str::<TrainConfig>(r#"{"epoch": 3}"#).is_err());
+    }
+
+    /// The config files of `tests/fixtures/`, as the code before `RunSettings` (commit 966515d)
+    /// wrote them (the defaults; a run with every run-level field changed), read back to configs
+    /// that write the same JSON. The defaults of now are those of then, so a new config is
+    /// written with the same keys and values as before.
+    #[test]
+    fn config_files_of_earlier_versions_read_back_unchanged() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures");
+        let read = |name: &str| read_config_unchanged::<TrainConfig>(&dir.join(name)).unwrap();
+        assert_eq!(read("config-default.json"), TrainConfig::default());
+        let custom = read("config-custom.json");
+        assert_eq!((custom.run.seed, custom.run.log_every_steps), (5, 7));
+        let partial: TrainConfig = serde_json::from_str(r#"{"epochs": 3}"#).unwrap();
+        assert_eq!(
+            partial.run,
+            TrainConfig::default().run,
+            "UWNR's own defaults"
+        );
+        assert!(serde_json::from_str::<TrainConfig>(r#"{"total_steps": 9}"#).is_err());
     }
 
     #[test]

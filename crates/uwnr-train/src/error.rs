@@ -40,3 +40,12 @@ pub enum TrainError {
     #[error(transparent)]
     Depth(#[from] uwnr_depth::DepthError),
 }
+
+impl From<uwnr_run::InvalidSetting> for TrainError {
+    fn from(e: uwnr_run::InvalidSetting) -> Self {
+        Self::InvalidConfig {
+            field: e.field,
+            reason: e.reason,
+        }
+    }
+}

@@ -39,5 +39,5 @@ pub use config::{
 pub use error::{Result, TrainError};
 pub use losses::{Criterion, LossValues};
 pub use trainer::{GENERATOR_FILE, TrainOptions, TrainSummary, train, train_step};
-pub use uwnr_run::{Event, ValResult, init_seeded};
+pub use uwnr_run::{Event, RunSettings, ValResult, init_seeded};
 pub use vgg::Vgg19Features;

@@ -16,7 +16,7 @@ use burn::tensor::ops::{AvgPoolOptions, ConvOptions, MaxPoolOptions};
 use burn::tensor::{Device, Tensor, TensorData};
 
 use crate::config::{LightFieldLoss, LossWeights, PerceptualFallback, TrainConfig};
-use crate::vgg::Vgg19Features;
+use crate::vgg::{CUT_WEIGHT, Vgg19Features};
 
 /// Gaussian sigmas of the light-field map (paper Eq. 2 and the released code).
 pub const LF_SIGMAS: [f64; 3] = [15.0, 60.0, 90.0];
@@ -151,6 +151,25 @@ fn window_filter(x: Tensor<4>, k: &[f64], c: usize, device: &Device) -> Tensor<4
 /// constants assume.
 pub fn ssim_loss(out: Tensor<4>, target: Tensor<4>) -> Tensor<1> {
     ssim(out.clamp(0.0, 1.0), target).neg() + 1.0
+}
+
+impl Vgg19Features {
+    /// The VGG19 perceptual loss of the released `loss/perceptual.py`: `sum over cuts of
+    /// 0.2 * L1(cut(out), cut(target))` over [`Vgg19Features::cuts`], the target's features
+    /// detached. (Here with the other losses, so that [`crate::vgg`] needs nothing from them.)
+    pub fn perceptual_loss(&self, out: Tensor<4>, target: Tensor<4>) -> Tensor<1> {
+        let a = self.cuts(out);
+        let b = self.cuts(target.detach());
+        let mut total: Option<Tensor<1>> = None;
+        for (fa, fb) in a.into_iter().zip(b) {
+            let term = l1(fa, fb.detach()) * CUT_WEIGHT;
+            total = Some(match total {
+                Some(t) => t + term,
+                None => term,
+            });
+        }
+        total.unwrap_or_else(|| Tensor::zeros([1], &Device::default()))
+    }
 }
 
 /// The perceptual term's implementation.

@@ -135,7 +135,7 @@ pub fn train(
     )));
     let source = Arc::new(BatchSpec {
         pairs: Arc::new(pairs),
-        seed: cfg.seed,
+        seed: cfg.run.seed,
         batch_size: cfg.batch_size,
         crop: cfg.crop,
         augment: cfg.augment,
@@ -156,28 +156,12 @@ pub fn train(
         &task,
         source,
         &prepared,
-        &schedule(cfg),
+        &Schedule::new(&cfg.run, cfg.epochs, cfg.batch_size, None),
         &session,
         stop,
         observer,
     )?;
     Ok(summary.into())
-}
-
-/// The loop's schedule from the run's config.
-fn schedule(cfg: &TrainConfig) -> Schedule {
-    Schedule {
-        epochs: cfg.epochs,
-        batch_size: cfg.batch_size,
-        total_steps: None,
-        seed: cfg.seed,
-        log_every_steps: cfg.log_every_steps,
-        val_every_epochs: cfg.val_every_epochs,
-        val_sheet_pairs: cfg.val_sheet_pairs,
-        checkpoint_every_steps: cfg.checkpoint_every_steps,
-        checkpoint_every_secs: cfg.checkpoint_every_secs,
-        prefetch_batches: cfg.prefetch_batches,
-    }
 }
 
 /// The light field (and, for the anchored variant, the water) of a validation pair's real

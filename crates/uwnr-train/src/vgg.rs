@@ -13,6 +13,9 @@
 //! (`features.N.weight` `[out, in, 3, 3]`, `features.N.bias` `[out]`), e.g. written by
 //! `safetensors.torch.save_file(torchvision.models.vgg19(weights="DEFAULT").state_dict(), f)`.
 //! Keys of later layers (and the classifier) are ignored.
+//!
+//! The perceptual distance itself, [`Vgg19Features::perceptual_loss`], is a loss and lives with
+//! the others in [`crate::losses`].
 
 use std::path::Path;
 
@@ -26,7 +29,6 @@ use burn::tensor::{Device, Tensor, TensorData};
 use safetensors::{Dtype, SafeTensors};
 
 use crate::error::{Result, TrainError};
-use crate::losses::l1;
 
 /// `(index in features, in channels, out channels)` of the convs before cut point 13.
 pub const VGG19_CONVS: [(usize, usize, usize); 6] = [
@@ -150,21 +152,6 @@ impl Vgg19Features {
             .conv12
             .forward(relu(self.conv10.forward(max_pool2d(f9.clone(), pool())))); // features[:13]
         [f1, f3, f5, f9, f13]
-    }
-
-    /// `sum over cuts of 0.2 * L1(cut(out), cut(target))`.
-    pub fn perceptual_loss(&self, out: Tensor<4>, target: Tensor<4>) -> Tensor<1> {
-        let a = self.cuts(out);
-        let b = self.cuts(target.detach());
-        let mut total: Option<Tensor<1>> = None;
-        for (fa, fb) in a.into_iter().zip(b) {
-            let term = l1(fa, fb.detach()) * CUT_WEIGHT;
-            total = Some(match total {
-                Some(t) => t + term,
-                None => term,
-            });
-        }
-        total.unwrap_or_else(|| Tensor::zeros([1], &Device::default()))
     }
 }
 

@@ -39,9 +39,9 @@ macro_rules! trainer_config {
                     epochs: &mut self.epochs,
                     batch_size: &mut self.batch_size,
                     crop: &mut self.crop,
-                    seed: &mut self.seed,
+                    seed: &mut self.run.seed,
                     lr: &mut self.lr,
-                    val_every_epochs: &mut self.val_every_epochs,
+                    val_every_epochs: &mut self.run.val_every_epochs,
                 }
             }
         }

@@ -11,7 +11,7 @@ use uwnr_enhance::{
     train,
 };
 use uwnr_model::Device;
-use uwnr_run::{Event, RunError};
+use uwnr_run::{Event, RunError, RunSettings};
 
 use crate::common::make_dir;
 
@@ -25,10 +25,13 @@ fn tiny_config(epochs: usize) -> EnhanceTrainConfig {
         batch_size: 2,
         crop: 32,
         lr: 5e-3,
-        seed: 5,
-        log_every_steps: 1,
-        checkpoint_every_secs: 0,
-        val_every_epochs: 0,
+        run: RunSettings {
+            seed: 5,
+            log_every_steps: 1,
+            checkpoint_every_secs: 0,
+            val_every_epochs: 0,
+            ..EnhanceTrainConfig::default().run
+        },
         ..EnhanceTrainConfig::default()
     }
 }
@@ -70,10 +73,8 @@ fn loss_falls_and_the_run_writes_its_files() {
     let tmp = tempfile::tempdir().unwrap();
     let data = make_dir(&tmp.path().join("train"), 6, 40, 36);
     let val = make_dir(&tmp.path().join("val"), 2, 40, 28);
-    let cfg = EnhanceTrainConfig {
-        val_every_epochs: 4,
-        ..tiny_config(8)
-    };
+    let mut cfg = tiny_config(8);
+    cfg.run.val_every_epochs = 4;
     let run_dir = tmp.path().join("run");
     let mut opts = EnhanceTrainOptions::new(vec![data], run_dir.clone(), Device::flex());
     opts.val = Some(val);

@@ -8,9 +8,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use uwnr_core::Image;
 use uwnr_core::io::save_rgb;
 use uwnr_model::{Device, GeneratorConfig, read_weights};
-use uwnr_run::RunError;
 use uwnr_run::checkpoint::{CHECKPOINTS_DIR, LAST};
 use uwnr_run::pairs::discover_pairs;
+use uwnr_run::{RunError, RunSettings};
 use uwnr_train::config::{AugmentConfig, ColorCast, LossWeights};
 use uwnr_train::data::{LoadOptions, load_data};
 use uwnr_train::{Event, GENERATOR_FILE, TrainConfig, TrainError, TrainOptions, train};
@@ -56,11 +56,14 @@ fn tiny_config(epochs: usize) -> TrainConfig {
         epochs,
         batch_size: 2,
         crop: 32,
-        seed: 5,
         lr: 2e-3,
-        log_every_steps: 1,
-        checkpoint_every_secs: 0,
-        val_every_epochs: 0,
+        run: RunSettings {
+            seed: 5,
+            log_every_steps: 1,
+            checkpoint_every_secs: 0,
+            val_every_epochs: 0,
+            ..TrainConfig::default().run
+        },
         ..TrainConfig::default()
     }
 }
@@ -86,9 +89,13 @@ fn loss_falls_and_validation_writes_its_outputs() {
     let tmp = tempfile::tempdir().unwrap();
     let data = make_dir(&tmp.path().join("train"), 6, 40, 36, "png");
     let val = make_dir(&tmp.path().join("val"), 2, 40, 28, "png");
+    let base = tiny_config(8);
     let cfg = TrainConfig {
-        val_every_epochs: 4,
-        val_sheet_pairs: 2,
+        run: RunSettings {
+            val_every_epochs: 4,
+            val_sheet_pairs: 2,
+            ..base.run
+        },
         augment: AugmentConfig {
             color_cast: Some(ColorCast {
                 probability: 0.5,
@@ -96,7 +103,7 @@ fn loss_falls_and_validation_writes_its_outputs() {
             }),
             ..AugmentConfig::default()
         },
-        ..tiny_config(8)
+        ..base
     };
     let mut opts = TrainOptions::new(vec![data], tmp.path().join("run"), Device::flex());
     opts.val = Some(val);
