@@ -40,7 +40,7 @@ from ._uwnr import Error
 __version__: str = _uwnr.__version__
 
 #: The methods a :class:`Renderer` can use.
-METHODS = ("uwnr", "uwgan", "jerlov", "uisa", "seathru", "reinhard")
+METHODS = tuple(_uwnr.METHODS)
 #: The light field normalisations: the paper's min-max map, or the fixed-range map.
 LIGHT_FIELD_MAPS = ("paper", "absolute")
 #: What can run the network in this build, the default first: "engine" (uwnr's own CPU
@@ -147,8 +147,9 @@ class Renderer:
         PyTorch checkpoint), or for ``method="uwgan"`` a GAN generator (``generator.safetensors``
         of a ``uwnr gan train`` run); ``None`` for the bundled model. Only for those two methods.
     :param method: ``"uwnr"`` (the network), ``"uwgan"`` (the UWGAN-style GAN baseline, which
-        reads no reference) or a baseline: ``"jerlov"``, ``"uisa"``, ``"seathru"``,
-        ``"reinhard"``.
+        reads no reference), a baseline: ``"jerlov"``, ``"uisa"``, ``"seathru"``,
+        ``"reinhard"``, or ``"haze"`` (plain haze ``I = J t + B (1 - t)`` with ``veil``, ``beta``
+        and ``depth_scale_m``, a control); ``METHODS`` lists them.
     :param seed: the run seed; a render's random parameters (baselines, and the GAN's water code)
         come from it and the item's index, as in ``uwnr render``.
     :param device: what runs the network: ``"engine"`` (default, uwnr's CPU inference engine, the
@@ -157,8 +158,9 @@ class Renderer:
     :param method_options: a baseline's parameters by name, as in its JSON config, e.g.
         ``water_type="3C"`` for Jerlov, ``space="lab"`` and ``match_std=False`` for Reinhard,
         ``coefficients={"mode": "given", "beta_d": [...], ...}`` for Sea-thru; for ``uwnr``,
-        ``scene_scale`` (the metres a relative depth map spans: a number, default 4, or
-        ``[min, max]`` drawn per image) and ``prior_trust`` (how far the built-in prior's depth
+        ``precision`` (``"f32"``, or ``"bf16"`` products on the engine: faster on CPUs with
+        AVX512_BF16, up to one 8-bit level off), ``scene_scale`` (the metres a relative depth
+        map spans: a number, default 4, or ``[min, max]`` drawn per image) and ``prior_trust`` (how far the built-in prior's depth
         differences act, 0 to 1; default 0.075, which keeps self-reconstruction fidelity; ``uwnr
         dataset`` uses 1). An option the method does not have is a ``ValueError``.
 

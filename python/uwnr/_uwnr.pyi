@@ -10,6 +10,7 @@ __version__: str
 BUNDLED_MODEL: bool
 BUNDLED_GAN: bool
 DEVICES: List[str]
+METHODS: List[str]
 
 class Error(Exception):
     """A weights, model or rendering problem in uwnr."""

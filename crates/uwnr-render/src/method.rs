@@ -427,7 +427,7 @@ mod tests {
         for text in [
             r#"{"method":"jerlov","water_type":"3C"}"#,
             r#"{"method":"reinhard","space":"rgb","match_std":false}"#,
-            r#"{"method":"seathru","coefficients":{"mode":"given"}}"#,
+            r#"{"method":"seathru","coefficients":{"mode":"given","beta_d":[0.4,0.1,0.1],"beta_b":[0.3,0.1,0.1],"b_inf":[0.1,0.4,0.5]}}"#,
             r#"{"method":"uisa"}"#,
         ] {
             let method: Method = serde_json::from_str(text).unwrap();
@@ -460,7 +460,7 @@ mod tests {
             SeathruCoefficients::Sampled(_)
         ));
         let given: Map<String, Value> =
-            serde_json::from_str(r#"{"coefficients":{"mode":"given"}}"#).unwrap();
+            serde_json::from_str(r#"{"coefficients":{"mode":"given","beta_d":[0.4,0.1,0.1],"beta_b":[0.3,0.1,0.1],"b_inf":[0.1,0.4,0.5]}}"#).unwrap();
         let spec = MethodSpec::from_keywords(MethodKind::Seathru, &given, true).unwrap();
         assert!(matches!(
             coefficients(spec.clone()),
