@@ -9,3 +9,4 @@ mod enhance;
 mod experiment;
 mod gan;
 mod golden;
+mod haze;
