@@ -18,8 +18,9 @@ OUT=${OUT:-../uwnr-runs/downstream-v1}
 DEVICE=${DEVICE:-tch}
 BIN=${BIN:-target/release/uwnr}
 # METHODS and REAL choose the rows: e.g. METHODS=uwgan REAL= adds one method's row to an earlier
-# run's table (the same seed, budget and tests give the same conditions).
-METHODS=${METHODS:-uwnr,uwgan,jerlov,uisa,seathru,reinhard}
+# run's table (the same seed, budget and tests give the same conditions); unset, the rows are
+# `uwnr experiment downstream`'s default methods.
+METHODS=${METHODS-}
 # SEED draws the references and seeds every training (docs/RESULTS.md repeats some rows with
 # SEED=1 and SEED=2, each in its own OUT).
 SEED=${SEED:-0}
@@ -37,5 +38,5 @@ exec "$BIN" experiment downstream \
   --references "$DATA/references" \
   --test "$DATA/paired/uieb-val" "$DATA/paired/lsui" "$SPLITS/lsui-test" \
   ${REAL:+--real "$REAL"} \
-  --methods "$METHODS" --per-image 4 --size 256x256 \
+  ${METHODS:+--methods "$METHODS"} --per-image 4 --size 256x256 \
   --budget 6000 --seed "$SEED" --device "$DEVICE" --out "$OUT"

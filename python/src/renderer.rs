@@ -15,7 +15,7 @@ use uwnr_core::Image;
 use uwnr_core::lightfield::{LightFieldMap, light_field_with};
 use uwnr_dataset::DepthPolicy;
 use uwnr_model::{GeneratorConfig, ReferenceStyle};
-use uwnr_render::{MethodKind, ReferenceInput, RenderError, Renderer};
+use uwnr_render::{MethodKind, ReferenceInput, ReferenceUse, RenderError, Renderer};
 
 use crate::convert::{Dtype, PixelView, Pixels, image_bytes};
 use crate::{Failure, compute, model, value};
@@ -335,7 +335,7 @@ impl NativeRenderer {
         let renderer = compute(py, || {
             Renderer::load_keywords(kind, &keywords).map_err(|e| match e {
                 RenderError::UnknownOption {
-                    method: MethodKind::Uwnr,
+                    method: "uwnr",
                     option,
                     known,
                 } => Failure::Value(format!(
@@ -373,6 +373,16 @@ impl NativeRenderer {
     #[getter]
     fn seed(&self) -> u64 {
         self.seed
+    }
+
+    /// What a render does with a reference: `"ignored"`, `"optional"` or `"required"`.
+    #[getter]
+    fn reference_use(&self) -> &'static str {
+        match self.renderer.reference_use() {
+            ReferenceUse::Ignored => "ignored",
+            ReferenceUse::Optional => "optional",
+            ReferenceUse::Required => "required",
+        }
     }
 
     /// The light field map the network reads (`None` for the other methods).

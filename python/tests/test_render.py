@@ -37,7 +37,7 @@ def test_file_paths_render_as_the_cli_writes(cli, network, samples, tmp_path):
     assert np.array_equal(got, read_png(out))
 
 
-@pytest.mark.parametrize("method", ["jerlov", "uisa", "seathru", "reinhard"])
+@pytest.mark.parametrize("method", ["jerlov", "uisa", "seathru", "reinhard", "haze"])
 def test_baselines_render_as_the_cli_writes(cli, pngs, tmp_path, method):
     d, clean, ref = pngs
     out = tmp_path / f"{method}.png"
@@ -47,6 +47,30 @@ def test_baselines_render_as_the_cli_writes(cli, pngs, tmp_path, method):
     )
     got = uwnr.Renderer(method=method, seed=11).render(clean, ref)
     assert np.array_equal(got, read_png(out))
+
+
+def test_bf16_precision_renders_as_the_cli_does(cli, network, pngs, tmp_path):
+    d, clean, ref = pngs
+    out = tmp_path / "bf16.png"
+    run_cli(cli, "render", d / "clean.png", "--reference", d / "ref.png", "--output", out,
+            "--precision", "bf16")
+    bf16 = uwnr.Renderer(precision="bf16").render(clean, ref)
+    assert np.array_equal(bf16, read_png(out))
+    f32 = network.render(clean, ref)
+    assert np.abs(bf16.astype(int) - f32).max() <= 2
+    with pytest.raises(ValueError, match="f64"):
+        uwnr.Renderer(precision="f64")
+    with pytest.raises(ValueError, match="engine only"):
+        uwnr.Renderer(precision="bf16", device="flex")
+
+
+def test_reference_use_comes_from_the_method():
+    assert uwnr.Renderer(method="jerlov").reference_use == "ignored"
+    assert uwnr.Renderer(method="haze").reference_use == "ignored"
+    assert uwnr.Renderer(method="reinhard").reference_use == "required"
+    assert uwnr.Renderer(method="seathru").reference_use == "optional"
+    sampled = uwnr.Renderer(method="seathru", coefficients={"mode": "sampled"})
+    assert sampled.reference_use == "ignored"
 
 
 def test_a_batch_draws_item_i_as_the_cli_does(cli, pngs, tmp_path):

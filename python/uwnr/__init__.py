@@ -232,6 +232,13 @@ class Renderer:
         return self._native.source
 
     @property
+    def reference_use(self) -> str:
+        """What a render does with a reference: ``"ignored"`` (uwgan, jerlov, haze, Sea-thru with
+        sampled or given coefficients), ``"optional"`` (Sea-thru by default: fitted to the
+        reference when there is one) or ``"required"``."""
+        return self._native.reference_use
+
+    @property
     def light_field_map(self) -> Optional[str]:
         """The light field map the network's weights read (``None`` for baselines)."""
         return self._native.light_field_map

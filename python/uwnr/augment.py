@@ -75,8 +75,9 @@ class UnderwaterAugment:
 
     :param references: a folder of real underwater images, one image path, or a sequence of
         images (paths, arrays, PIL images, :class:`uwnr.Reference`).
-    :param methods: the methods to draw from, uniformly (``"uwnr"``, ``"uwgan"``, ``"jerlov"``,
-        ``"uisa"``, ``"seathru"``, ``"reinhard"``; ``"jerlov"`` and ``"uwgan"`` read no reference).
+    :param methods: the methods to draw from, uniformly (any of ``uwnr.METHODS``: ``"uwnr"``,
+        ``"uwgan"``, ``"jerlov"``, ``"uisa"``, ``"seathru"``, ``"reinhard"``, ``"haze"``; those
+        whose ``Renderer.reference_use`` is ``"ignored"`` are given no reference).
     :param p: probability of rendering; otherwise the input is returned unchanged.
     :param seed: the base of the augmentation's random stream (see the module docs).
     :param weights: UWNR weights for ``"uwnr"`` (``None``: the bundled model).
@@ -173,7 +174,9 @@ class UnderwaterAugment:
         renderer = self._renderers.get(method)
         if renderer is None:
             renderer = self._renderers[method] = self._make_renderer(method)
-        reference = self._reference(ref_index) if method not in ("jerlov", "uwgan") else None
+        # A method that reads no reference is not given one (nor made to decode it).
+        reads = renderer.reference_use != "ignored"
+        reference = self._reference(ref_index) if reads else None
         return renderer.render(x, reference, depth, seed=render_seed)
 
     def __getstate__(self) -> Dict[str, Any]:

@@ -314,7 +314,7 @@ impl MethodSpec {
         for (key, v) in keywords {
             if key == "method" || !fields.contains_key(key) {
                 return Err(RenderError::UnknownOption {
-                    method: kind,
+                    method: kind.name(),
                     option: key.clone(),
                     known: known.join(", "),
                 });
@@ -322,7 +322,7 @@ impl MethodSpec {
             fields.insert(key.clone(), v.clone());
         }
         serde_json::from_value(Value::Object(fields)).map_err(|e| RenderError::BadOptions {
-            method: kind,
+            method: kind.name(),
             reason: e.to_string(),
         })
     }

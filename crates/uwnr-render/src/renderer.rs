@@ -362,7 +362,7 @@ impl Worker<'_> {
         match &self.0 {
             WorkerImp::Uwnr { generator, net } => {
                 let style = reference.style.ok_or(RenderError::NeedsReference {
-                    method: MethodKind::Uwnr,
+                    method: MethodKind::Uwnr.name(),
                 })?;
                 let options = RenderOptions {
                     depth: *response,
@@ -402,7 +402,7 @@ impl Worker<'_> {
                 };
                 if method.needs_reference() && reference.image.is_none() {
                     return Err(RenderError::NeedsReference {
-                        method: MethodSpec::from_baseline((*method).clone()).kind(),
+                        method: method.name(),
                     });
                 }
                 let input = RenderInput {
@@ -579,7 +579,7 @@ mod tests {
             matches!(
                 e,
                 RenderError::NeedsReference {
-                    method: MethodKind::Uisa
+                    method: "uisa"
                 }
             ),
             "{e}"
