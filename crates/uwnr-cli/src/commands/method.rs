@@ -190,7 +190,9 @@ pub fn method_spec(
                 p.match_std = false;
             }
         }
-        MethodSpec::Uisa(_) | MethodSpec::Haze(_) => {}
+        // The methods with no flags of their own (their settings come from --method-config), so
+        // that a method added to uwnr-render needs nothing here.
+        _ => {}
     }
     if !kind.loads_weights()
         && spec.reference_use() == uwnr_render::ReferenceUse::Required
