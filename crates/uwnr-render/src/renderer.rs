@@ -576,12 +576,7 @@ mod tests {
             .err()
             .unwrap();
         assert!(
-            matches!(
-                e,
-                RenderError::NeedsReference {
-                    method: "uisa"
-                }
-            ),
+            matches!(e, RenderError::NeedsReference { method: "uisa" }),
             "{e}"
         );
     }
