@@ -443,6 +443,28 @@ pub enum DatasetAction {
         #[arg(long)]
         no_gallery: bool,
     },
+    /// Pack a finished dataset folder into WebDataset tar shards (OUT/webdataset/ by default):
+    /// per pair the images, labels and manifest line, deterministic for the same folder.
+    Export {
+        /// The dataset folder (merged, if it was made in shards).
+        #[arg(value_name = "OUT")]
+        out: PathBuf,
+        /// Where to write the shards (default OUT/webdataset).
+        #[arg(long, value_name = "DIR")]
+        to: Option<PathBuf>,
+        /// Largest shard, e.g. 512M or 2G (a pair never spans two shards).
+        #[arg(long, value_name = "SIZE", default_value = "512M", value_parser = uwnr_dataset::webdataset::parse_size)]
+        shard_size: u64,
+    },
+}
+
+/// How `uwnr dataset` delivers the pairs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum DatasetFormat {
+    /// Folders of PNG files (underwater/, clean/, labels/...) with manifest.jsonl.
+    Folder,
+    /// The folders, then WebDataset tar shards of them in OUT/webdataset/ when the run ends.
+    Webdataset,
 }
 
 #[derive(Debug, Args)]
@@ -485,6 +507,24 @@ pub struct DatasetMakeArgs {
     /// Skip preview.png and index.html.
     #[arg(long)]
     pub no_gallery: bool,
+    /// COCO instances file of the clean images: written for every pair (labels/NAME_k.json and
+    /// OUT/coco.json), boxes, polygons, RLE masks and keypoints scaled and cropped with --size.
+    #[arg(long, value_name = "FILE", conflicts_with = "yolo")]
+    pub coco: Option<PathBuf>,
+    /// Folder of YOLO label files (NAME.txt, matched by the path below --clean, else by name):
+    /// written for every pair as labels/NAME_k.txt.
+    #[arg(long, value_name = "DIR")]
+    pub yolo: Option<PathBuf>,
+    /// Folder of segmentation label PNGs (matched like --yolo): written for every pair as
+    /// masks/NAME_k.png, resized by nearest neighbour, values unchanged.
+    #[arg(long, value_name = "DIR")]
+    pub masks: Option<PathBuf>,
+    /// Output format: folders only, or folders then WebDataset tar shards.
+    #[arg(long, value_enum, default_value_t = DatasetFormat::Folder)]
+    pub format: DatasetFormat,
+    /// Largest WebDataset shard with --format webdataset, e.g. 512M or 2G.
+    #[arg(long, value_name = "SIZE", default_value = "512M", value_parser = uwnr_dataset::webdataset::parse_size)]
+    pub shard_size: u64,
     #[command(flatten)]
     pub depth: DepthOpts,
     #[command(flatten)]

@@ -203,6 +203,8 @@ mod tests {
             clean: format!("clean/{id}.png"),
             depth: None,
             lightfield: None,
+            labels: None,
+            mask: None,
         }
     }
 

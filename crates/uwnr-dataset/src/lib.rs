@@ -15,6 +15,8 @@
 //! OUT/depth/NAME_k.png     16-bit depth the render used, bright = far (optional; the pair's
 //!                          `params.depth` in the manifest says what 1 stands for)
 //! OUT/lightfield/NAME_k.png  the light field the network saw (optional)
+//! OUT/labels/NAME_k.json|txt, OUT/masks/NAME_k.png, OUT/coco.json   labels (see [`labels`])
+//! OUT/webdataset/uwnr-NNNNNN.tar, index.json   WebDataset shards (see [`webdataset`])
 //! OUT/failed.jsonl         what the last run could not make (absent when nothing failed)
 //! OUT/preview.png, OUT/index.html, OUT/gallery/   a look at the result
 //! ```
@@ -22,18 +24,22 @@
 pub mod depth;
 pub mod error;
 pub mod gallery;
+pub mod labels;
 pub mod manifest;
 pub mod merge;
 pub mod plan;
 pub mod renderer;
 pub mod run;
 pub mod verify;
+pub mod webdataset;
 
 pub use depth::{DATASET_PRIOR_TRUST, DATASET_SCENE_SCALE_M, DepthPolicy};
 pub use error::{DatasetError, Result};
+pub use labels::LabelInputs;
 pub use manifest::{Failure, Record, Settings};
 pub use merge::{MergeReport, merge};
 pub use plan::{Shard, Size};
 pub use renderer::Renderer;
 pub use run::{Event, RunOptions, Spec, Summary, generate};
 pub use verify::{Report, verify};
+pub use webdataset::{ExportReport, export};

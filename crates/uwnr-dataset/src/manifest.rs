@@ -26,8 +26,16 @@ pub const CLEAN_DIR: &str = "clean";
 pub const DEPTH_DIR: &str = "depth";
 /// Folder of the light-field maps the network saw, at the pair's size.
 pub const LIGHTFIELD_DIR: &str = "lightfield";
+pub use crate::labels::{LABELS_DIR, MASKS_DIR};
 /// Every folder that holds pair files.
-pub const PAIR_DIRS: [&str; 4] = [UNDERWATER_DIR, CLEAN_DIR, DEPTH_DIR, LIGHTFIELD_DIR];
+pub const PAIR_DIRS: [&str; 6] = [
+    UNDERWATER_DIR,
+    CLEAN_DIR,
+    DEPTH_DIR,
+    LIGHTFIELD_DIR,
+    LABELS_DIR,
+    MASKS_DIR,
+];
 
 /// Everything that decides a dataset's content. Two runs with equal settings make the same
 /// files, byte for byte.
@@ -62,6 +70,13 @@ pub struct Settings {
     pub references: Vec<String>,
     /// `clean.len() * per_image`.
     pub pairs_planned: usize,
+    /// The box labels carried to the pairs (`format` `coco` or `yolo`, their source and its
+    /// fingerprint; for COCO also its `info`, `licenses` and `categories`); absent without.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub labels: Option<serde_json::Value>,
+    /// The label masks carried to the pairs (their folder); absent without.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub masks: Option<serde_json::Value>,
 }
 
 /// One pair of the plan: its id, global index and clean image.
@@ -200,11 +215,28 @@ pub struct Record {
     pub depth: Option<String>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub lightfield: Option<String>,
+    /// The pair's labels: `labels/NAME_k.json` (COCO) or `labels/NAME_k.txt` (YOLO).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub labels: Option<String>,
+    /// The pair's label mask, `masks/NAME_k.png`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mask: Option<String>,
 }
 
 impl Record {
     /// The pair's files, relative to the dataset folder.
     pub fn files(&self) -> impl Iterator<Item = &str> {
+        self.images().chain(
+            [self.labels.as_ref(), self.mask.as_ref()]
+                .into_iter()
+                .flatten()
+                .map(String::as_str),
+        )
+    }
+
+    /// The pair's images (what decodes as a picture at the pair's size): underwater, clean,
+    /// depth and light field.
+    pub fn images(&self) -> impl Iterator<Item = &str> {
         [
             Some(&self.underwater),
             Some(&self.clean),
@@ -462,6 +494,8 @@ mod tests {
             clean: format!("clean/{id}.png"),
             depth: None,
             lightfield: None,
+            labels: None,
+            mask: None,
         }
     }
 

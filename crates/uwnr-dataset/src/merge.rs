@@ -238,6 +238,7 @@ pub fn merge(out: &Path, sources: &[PathBuf], gallery: bool) -> Result<MergeRepo
             }
         }
     }
+    crate::labels::write_coco(out, settings.labels.as_ref(), &records)?;
     if gallery {
         crate::gallery::write(out, &records)?;
     }

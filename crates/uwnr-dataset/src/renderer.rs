@@ -47,6 +47,7 @@ mod tests {
             save_lightfield: false,
             depth: uwnr_depth::DepthSource::Builtin,
             depth_policy: crate::DepthPolicy::default(),
+            labels: crate::LabelInputs::default(),
         };
         let opts = crate::RunOptions {
             shard: None,

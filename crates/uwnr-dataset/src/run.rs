@@ -31,6 +31,7 @@ use uwnr_depth::{DepthSource, PreparedDepth};
 use uwnr_model::ReferenceStyle;
 
 use crate::depth::DepthPolicy;
+use crate::labels::{Fit, LABELS_DIR, LabelInputs, Labels, MASKS_DIR, PairLabels};
 
 use crate::error::{DatasetError, Result, io_err};
 use crate::manifest::{
@@ -63,6 +64,8 @@ pub struct Spec {
     pub depth: DepthSource,
     /// Maps beside the clean images, the scene scale per pair, the trust in the prior.
     pub depth_policy: DepthPolicy,
+    /// Labels of the clean images, carried to every pair.
+    pub labels: LabelInputs,
 }
 
 /// How to run it.
@@ -179,6 +182,18 @@ pub fn generate(
             renderer.name()
         )));
     }
+    let mut notes = Vec::new();
+    let labels = Labels::prepare(
+        &spec.labels,
+        &cleans,
+        &spec.clean,
+        spec.per_image,
+        &mut notes,
+    )?;
+    for n in &notes {
+        observer(Event::Note(n));
+    }
+    let (settings_labels, settings_masks) = labels.settings();
     if !refs.is_empty() && spec.per_image > refs.len() {
         return Err(DatasetError::Invalid(format!(
             "--per-image {} draws that many different references per clean image, but only {} \
@@ -212,6 +227,8 @@ pub fn generate(
             .map(|p| p.to_string_lossy().into_owned())
             .collect(),
         pairs_planned: cleans.len() * spec.per_image,
+        labels: settings_labels,
+        masks: settings_masks,
     };
     match Settings::read(out) {
         Ok(existing) => {
@@ -236,6 +253,12 @@ pub fn generate(
     if spec.save_lightfield {
         dirs.push(LIGHTFIELD_DIR);
     }
+    if settings.labels.is_some() {
+        dirs.push(LABELS_DIR);
+    }
+    if settings.masks.is_some() {
+        dirs.push(MASKS_DIR);
+    }
     for d in &dirs {
         let p = out.join(d);
         std::fs::create_dir_all(&p).map_err(io_err(&p))?;
@@ -256,6 +279,8 @@ pub fn generate(
             && !done.contains(&r.id)
             && r.depth.is_some() == spec.save_depth
             && r.lightfield.is_some() == spec.save_lightfield
+            && r.labels.is_some() == settings.labels.is_some()
+            && r.mask.is_some() == settings.masks.is_some()
             && r.files().all(|f| out.join(f).is_file());
         if valid {
             done.insert(r.id.clone());
@@ -323,6 +348,7 @@ pub fn generate(
         ref_cache: (0..refs.len()).map(|_| OnceLock::new()).collect(),
         depth: &prepared,
         beside: &beside,
+        labels: &labels,
         limits: &opts.limits,
         stop,
     };
@@ -402,6 +428,9 @@ pub fn generate(
     if !summary.interrupted {
         // Put the manifest in pair order, so the folder is the same whatever the job count.
         write_manifest(&manifest_path, &mut kept)?;
+        if opts.shard.is_none() {
+            crate::labels::write_coco(out, settings.labels.as_ref(), &kept)?;
+        }
         if opts.shard.is_none() && opts.gallery && summary.complete {
             crate::gallery::write(out, &kept)?;
         }
@@ -426,7 +455,8 @@ fn remove_stale_temps(
             let Some(target) = temp_target(&name) else {
                 continue;
             };
-            let id = target.strip_suffix(".png").unwrap_or(target);
+            // `NAME_k.png`, `NAME_k.json`...: the pair's id is the name without its extension.
+            let id = target.rsplit_once('.').map_or(target, |(id, _)| id);
             if all || owned.contains_key(id) {
                 let p = entry.path();
                 std::fs::remove_file(&p).map_err(io_err(&p))?;
@@ -451,6 +481,8 @@ struct Context<'a> {
     depth: &'a PreparedDepth,
     /// Per clean image, its measured map beside it (`X/depth/` next to `X/rgb/`).
     beside: &'a [Option<PathBuf>],
+    /// The clean images' labels.
+    labels: &'a Labels,
     limits: &'a DecodeLimits,
     stop: &'a AtomicBool,
 }
@@ -477,10 +509,13 @@ impl Context<'_> {
             }))
             .is_ok()
         };
-        let (clean, depth) = match self.clean_and_depth(i) {
-            Ok(c) => c,
-            Err(reason) => return fail(ids, reason),
-        };
+        let (clean, depth, labels) =
+            match self.clean_and_depth(i).and_then(|(clean, depth, fit)| {
+                Ok((clean, depth, self.labels.for_clean(i, &fit, self.limits)?))
+            }) {
+                Ok(c) => c,
+                Err(reason) => return fail(ids, reason),
+            };
         let references = if self.refs.is_empty() {
             Vec::new()
         } else {
@@ -515,8 +550,17 @@ impl Context<'_> {
                     }
                 }
             };
-            let result =
-                self.make_pair(worker, &clean, &depth, reference, seed, &id, lf_dir_needed);
+            let pair_labels = labels.pair(&id, index, k, clean.size());
+            let result = self.make_pair(
+                worker,
+                &clean,
+                &depth,
+                reference,
+                seed,
+                &id,
+                lf_dir_needed,
+                &pair_labels,
+            );
             let msg = match result {
                 Ok((params, reference_source)) => Msg::Pair(Record {
                     id: id.clone(),
@@ -538,6 +582,8 @@ impl Context<'_> {
                         .spec
                         .save_lightfield
                         .then(|| format!("{LIGHTFIELD_DIR}/{id}.png")),
+                    labels: pair_labels.labels.map(|(f, _)| f),
+                    mask: pair_labels.mask.map(|(f, _)| f),
                 }),
                 Err(reason) => Msg::Failed(Failure {
                     source: source.to_string_lossy().into_owned(),
@@ -552,12 +598,16 @@ impl Context<'_> {
         true
     }
 
-    /// Clean image `i` fitted to the pair size, and its depth. Maps from files are read at the
-    /// image's own size and fitted as it is (cover and centre-crop), so that they stay aligned;
-    /// the prior and depth models see the fitted image.
-    fn clean_and_depth(&self, i: usize) -> std::result::Result<(Image, uwnr_depth::Depth), String> {
+    /// Clean image `i` fitted to the pair size, its depth, and the fit (which carries its labels
+    /// too). Maps from files are read at the image's own size and fitted as it is (cover and
+    /// centre-crop), so that they stay aligned; the prior and depth models see the fitted image.
+    fn clean_and_depth(
+        &self,
+        i: usize,
+    ) -> std::result::Result<(Image, uwnr_depth::Depth, Fit), String> {
         let source = &self.cleans[i];
         let img = load_rgb(source, self.limits).map_err(|e| e.to_string())?;
+        let geometry = Fit::new(img.size(), self.spec.size);
         let clean = fit(&img, self.spec.size).map_err(|e| e.to_string())?;
         let depth = if let Some(map) = &self.beside[i] {
             uwnr_depth::Depth::from_file(map, img.size(), self.spec.depth_policy.unit, self.limits)
@@ -570,11 +620,11 @@ impl Context<'_> {
             return self
                 .depth
                 .depth_for(&clean, Some(source))
-                .map(|d| (clean, d))
+                .map(|d| (clean, d, geometry))
                 .map_err(|e| format!("depth: {e}"));
         };
         let map = fit_geometry(&depth.map, self.spec.size).map_err(|e| format!("depth: {e}"))?;
-        Ok((clean, uwnr_depth::Depth { map, ..depth }))
+        Ok((clean, uwnr_depth::Depth { map, ..depth }, geometry))
     }
 
     /// The references of clean image `i`, in draw order: the first K readable ones of its
@@ -630,6 +680,7 @@ impl Context<'_> {
         seed: u64,
         id: &str,
         save_lightfield: bool,
+        labels: &PairLabels,
     ) -> std::result::Result<(serde_json::Value, Option<String>), String> {
         let decoded;
         let (input, reference_source) = match reference {
@@ -679,6 +730,11 @@ impl Context<'_> {
                 resize_bilinear(lf, clean.width(), clean.height()).map_err(|e| e.to_string())?;
             write(LIGHTFIELD_DIR, &|p| save_rgb(p, &at_size))?;
         }
+        for (file, bytes) in [&labels.labels, &labels.mask].into_iter().flatten() {
+            let p = self.out.join(file);
+            uwnr_core::io::write_atomic_bytes(&p, bytes)
+                .map_err(|e| format!("writing {}: {e}", p.display()))?;
+        }
         write(UNDERWATER_DIR, &|p| save_rgb(p, &underwater))?;
         Ok((params, reference_source))
     }
@@ -690,24 +746,18 @@ pub fn fit(img: &Image, size: Size) -> uwnr_core::Result<Image> {
     Ok(fit_geometry(img, size)?.quantised())
 }
 
-/// [`fit`] without the quantisation (depth maps).
+/// [`fit`] without the quantisation (depth maps): the image through its [`Fit`].
 pub fn fit_geometry(img: &Image, size: Size) -> uwnr_core::Result<Image> {
-    let sized = match size {
-        Size::Native => return Ok(img.clone()),
-        Size::Fixed { width, height } => {
-            let (w, h) = (img.width() as f64, img.height() as f64);
-            let scale = (width as f64 / w).max(height as f64 / h);
-            let sw = ((w * scale).round() as usize).max(width);
-            let sh = ((h * scale).round() as usize).max(height);
-            let scaled = if (sw, sh) == img.size() {
-                img.clone()
-            } else {
-                resize_bilinear(img, sw, sh)?
-            };
-            scaled.crop((sw - width) / 2, (sh - height) / 2, width, height)?
-        }
+    let f = Fit::new(img.size(), size);
+    if f.is_identity() {
+        return Ok(img.clone());
+    }
+    let scaled = if (f.scaled_width, f.scaled_height) == img.size() {
+        img.clone()
+    } else {
+        resize_bilinear(img, f.scaled_width, f.scaled_height)?
     };
-    Ok(sized)
+    scaled.crop(f.x0, f.y0, f.width, f.height)
 }
 
 #[cfg(test)]

@@ -11,11 +11,14 @@ use rayon::prelude::*;
 use uwnr_core::io::{DecodeLimits, load_rgb};
 
 use crate::error::{Result, io_err};
+use crate::labels::mask::LabelImage;
+use crate::labels::{COCO_FILE, LABELS_DIR, MASKS_DIR, yolo};
 use crate::manifest::{
     PAIR_DIRS, Record, Settings, failed_ids, read_failures, read_manifest, shard_of_file,
     temp_target,
 };
 use crate::plan::Size;
+use crate::webdataset::{INDEX_FILE, Index, WEBDATASET_DIR, key, tar_members};
 
 /// What verification found.
 #[derive(Debug, Default)]
@@ -144,7 +147,8 @@ pub fn verify(out: &Path, progress: &(dyn Fn(usize, usize) + Sync)) -> Result<Re
         .par_iter()
         .flat_map_iter(|r| {
             let mut problems = Vec::new();
-            for f in r.files() {
+            check_labels(out, r, &limits, &mut problems);
+            for f in r.images() {
                 let path = out.join(f);
                 if !path.is_file() {
                     problems.push(format!("{f} (pair {}) is missing", r.id));
@@ -196,6 +200,9 @@ pub fn verify(out: &Path, progress: &(dyn Fn(usize, usize) + Sync)) -> Result<Re
         stray.sort();
         report.problems.extend(stray);
     }
+
+    check_coco(out, &settings, &manifests, &records, &mut report.problems);
+    check_webdataset(out, &records, &mut report.problems);
 
     // Completeness.
     let mut failures = Vec::new();
@@ -249,6 +256,27 @@ fn check_record_fields(settings: &Settings, r: &Record, at: &str, problems: &mut
             r.id
         ));
     }
+    if r.labels.is_some() != settings.labels.is_some()
+        || r.mask.is_some() != settings.masks.is_some()
+    {
+        problems.push(format!(
+            "{at}: pair {} does not list the label files the settings ask for",
+            r.id
+        ));
+    }
+    let labels_ext = match settings.labels.as_ref().map(|l| &l["format"]) {
+        Some(f) if f == "yolo" => "txt",
+        _ => "json",
+    };
+    if r.labels
+        .as_ref()
+        .is_some_and(|l| *l != format!("{LABELS_DIR}/{}.{labels_ext}", r.id))
+        || r.mask
+            .as_ref()
+            .is_some_and(|m| *m != format!("{MASKS_DIR}/{}.png", r.id))
+    {
+        problems.push(format!("{at}: pair {} names unexpected label files", r.id));
+    }
     if let Size::Fixed { width, height } = settings.size
         && (r.width, r.height) != (width, height)
     {
@@ -256,5 +284,150 @@ fn check_record_fields(settings: &Settings, r: &Record, at: &str, problems: &mut
             "{at}: pair {} is {}x{}, the dataset is {width}x{height}",
             r.id, r.width, r.height
         ));
+    }
+}
+
+/// A pair's label files: present, readable, and describing an image of the pair's size.
+fn check_labels(out: &Path, r: &Record, limits: &DecodeLimits, problems: &mut Vec<String>) {
+    if let Some(f) = &r.labels {
+        let path = out.join(f);
+        match std::fs::read(&path) {
+            Err(_) => problems.push(format!("{f} (pair {}) is missing", r.id)),
+            Ok(bytes) if f.ends_with(".txt") => {
+                if let Err(e) = std::str::from_utf8(&bytes)
+                    .map_err(|e| e.to_string())
+                    .and_then(yolo::parse)
+                {
+                    problems.push(format!("{f}: {e}"));
+                }
+            }
+            Ok(bytes) => match serde_json::from_slice::<serde_json::Value>(&bytes) {
+                Err(e) => problems.push(format!("{f} is not JSON: {e}")),
+                Ok(v) => {
+                    let image = &v["image"];
+                    let expect = serde_json::json!({
+                        "id": r.index + 1, "width": r.width, "height": r.height,
+                        "file_name": r.underwater,
+                    });
+                    if ["id", "width", "height", "file_name"]
+                        .iter()
+                        .any(|k| image[k] != expect[k])
+                        || !v["annotations"].is_array()
+                    {
+                        problems.push(format!(
+                            "{f} does not describe pair {} (image id {}, {}x{}, {})",
+                            r.id,
+                            r.index + 1,
+                            r.width,
+                            r.height,
+                            r.underwater
+                        ));
+                    }
+                }
+            },
+        }
+    }
+    if let Some(f) = &r.mask {
+        match LabelImage::read(&out.join(f), limits) {
+            Err(e) => problems.push(format!("{f} (pair {}) does not decode: {e}", r.id)),
+            Ok(m) if (m.width, m.height) != (r.width, r.height) => problems.push(format!(
+                "{f} is {}x{}, the manifest says {}x{}",
+                m.width, m.height, r.width, r.height
+            )),
+            Ok(_) => {}
+        }
+    }
+}
+
+/// `coco.json` of a merged dataset with COCO labels: present and listing exactly its pairs.
+fn check_coco(
+    out: &Path,
+    settings: &Settings,
+    manifests: &[String],
+    records: &[Record],
+    problems: &mut Vec<String>,
+) {
+    let coco = settings
+        .labels
+        .as_ref()
+        .is_some_and(|l| l["format"] == "coco");
+    if !coco || manifests != ["manifest.jsonl"] {
+        return;
+    }
+    let path = out.join(COCO_FILE);
+    let v: serde_json::Value = match std::fs::read(&path)
+        .map_err(|e| e.to_string())
+        .and_then(|b| serde_json::from_slice(&b).map_err(|e| e.to_string()))
+    {
+        Ok(v) => v,
+        Err(e) => {
+            problems.push(format!(
+                "{COCO_FILE} is missing or unreadable ({e}): run the same command again"
+            ));
+            return;
+        }
+    };
+    let mut ids: Vec<u64> = v["images"]
+        .as_array()
+        .map(|a| a.iter().filter_map(|i| i["id"].as_u64()).collect())
+        .unwrap_or_default();
+    ids.sort_unstable();
+    let mut expect: Vec<u64> = records.iter().map(|r| r.index + 1).collect();
+    expect.sort_unstable();
+    if ids != expect {
+        problems.push(format!(
+            "{COCO_FILE} lists {} images, the manifest {} pairs: run the same command again",
+            ids.len(),
+            expect.len()
+        ));
+    }
+}
+
+/// `webdataset/`, when present: its index and shards hold exactly the manifest's pairs.
+fn check_webdataset(out: &Path, records: &[Record], problems: &mut Vec<String>) {
+    let dir = out.join(WEBDATASET_DIR);
+    if !dir.join(INDEX_FILE).is_file() {
+        return;
+    }
+    let stale = |why: String| {
+        format!("{WEBDATASET_DIR}/ is out of date ({why}): run `uwnr dataset export` again")
+    };
+    let index = match Index::read(&dir) {
+        Ok(i) => i,
+        Err(e) => return problems.push(e.to_string()),
+    };
+    let mut keys = Vec::new();
+    for s in &index.shards {
+        let p = dir.join(&s.file);
+        match std::fs::metadata(&p) {
+            Ok(m) if m.len() == s.bytes => {}
+            _ => {
+                problems.push(stale(format!(
+                    "{} is missing or not {} bytes",
+                    s.file, s.bytes
+                )));
+                return;
+            }
+        }
+        match tar_members(&p) {
+            Ok(members) => {
+                for (name, _) in members {
+                    if let Some(k) = name.strip_suffix(".json").filter(|k| !k.contains('.')) {
+                        keys.push(k.to_string());
+                    }
+                }
+            }
+            Err(e) => return problems.push(e.to_string()),
+        }
+    }
+    let mut sorted: Vec<&Record> = records.iter().collect();
+    sorted.sort_by_key(|r| r.index);
+    let expect: Vec<String> = sorted.iter().map(|r| key(r)).collect();
+    if keys != expect {
+        problems.push(stale(format!(
+            "{} pairs packed, {} in the manifest",
+            keys.len(),
+            expect.len()
+        )));
     }
 }

@@ -473,6 +473,7 @@ pub fn run_downstream(
         save_lightfield: false,
         depth: spec.depth.clone(),
         depth_policy: spec.depth_policy,
+        labels: uwnr_dataset::LabelInputs::default(),
     };
     let real_names: Vec<String> = short_names(&spec.real)
         .into_iter()

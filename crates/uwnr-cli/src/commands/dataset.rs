@@ -1,12 +1,13 @@
 //! `uwnr dataset`, `uwnr dataset verify`, `uwnr dataset merge` (library: `uwnr_dataset`).
 
+use std::path::Path;
 use std::process::ExitCode;
 
 use anyhow::{Context, Result};
 use uwnr_core::io::DecodeLimits;
 use uwnr_dataset::{Event, Renderer, RunOptions, Spec};
 
-use crate::cli::{DatasetAction, DatasetArgs, DatasetMakeArgs};
+use crate::cli::{DatasetAction, DatasetArgs, DatasetFormat, DatasetMakeArgs};
 
 /// Problems printed by `verify` before the rest are only counted.
 const MAX_LISTED_PROBLEMS: usize = 200;
@@ -42,8 +43,33 @@ pub fn run(a: &DatasetArgs) -> Result<ExitCode> {
             }
             Ok(ExitCode::SUCCESS)
         }
+        Some(DatasetAction::Export {
+            out,
+            to,
+            shard_size,
+        }) => export(out, to.as_deref(), *shard_size),
         None => make(&a.make),
     }
+}
+
+fn export(out: &Path, to: Option<&Path>, shard_size: u64) -> Result<ExitCode> {
+    let bar = super::progress_bar("{spinner} packing {pos}/{len} pairs [{bar:30}] eta {eta}");
+    let progress = |done: usize, total: usize| {
+        bar.set_length(total as u64);
+        bar.set_position(done as u64);
+    };
+    let r = uwnr_dataset::export(out, to, shard_size, &progress)
+        .with_context(|| format!("packing {} as WebDataset shards", out.display()))?;
+    bar.finish_and_clear();
+    eprintln!(
+        "packed {} pairs into {} shard(s), {:.1} MB, in {:.1} s: {}",
+        r.index.pairs,
+        r.index.shards.len(),
+        r.bytes as f64 / 1e6,
+        r.secs,
+        r.dir.join(&r.index.pattern).display()
+    );
+    Ok(ExitCode::SUCCESS)
 }
 
 fn renderer(a: &DatasetMakeArgs) -> Result<Renderer> {
@@ -71,6 +97,11 @@ fn make(a: &DatasetMakeArgs) -> Result<ExitCode> {
             a.baseline.depth_scale,
             uwnr_dataset::DepthPolicy::default(),
         ),
+        labels: uwnr_dataset::LabelInputs {
+            coco: a.coco.clone(),
+            yolo: a.yolo.clone(),
+            masks: a.masks.clone(),
+        },
     };
     let jobs = a.jobs.unwrap_or_else(|| {
         std::thread::available_parallelism()
@@ -144,6 +175,16 @@ fn make(a: &DatasetMakeArgs) -> Result<ExitCode> {
     }
     if summary.complete && a.shard.is_none() {
         eprintln!("wrote {}", out.join("manifest.jsonl").display());
+    }
+    if a.format == DatasetFormat::Webdataset {
+        if a.shard.is_some() {
+            eprintln!(
+                "note: a shard is not packed; after `uwnr dataset merge`, run `uwnr dataset export {}`",
+                out.display()
+            );
+        } else if summary.rendered + summary.skipped > 0 {
+            export(&out, None, a.shard_size)?;
+        }
     }
     if !summary.complete {
         let made = summary.rendered + summary.skipped;

@@ -67,6 +67,7 @@ pub fn spec(clean: &Path, refs: &Path, k: usize) -> Spec {
         save_lightfield: true,
         depth: DepthSource::Builtin,
         depth_policy: uwnr_dataset::DepthPolicy::default(),
+        labels: uwnr_dataset::LabelInputs::default(),
     }
 }
 
