@@ -33,7 +33,7 @@ pub enum Command {
     Eval(EvalArgs),
     /// Generate a paired dataset (K renders per clean image), resumable and shardable;
     /// `dataset verify` checks one, `dataset merge` joins shards.
-    Dataset(DatasetArgs),
+    Dataset(Box<DatasetArgs>),
     /// Experiments: `experiment downstream` trains an enhancer on each method's synthetic data
     /// and scores it on real test pairs (the paper's Table 1).
     Experiment(ExperimentArgs),

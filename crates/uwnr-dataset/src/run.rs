@@ -131,7 +131,7 @@ impl Summary {
 }
 
 enum Msg {
-    Pair(Record),
+    Pair(Box<Record>),
     Failed(Failure),
     WorkerFailed(String),
 }
@@ -401,7 +401,7 @@ pub fn generate(
                         done.insert(r.id.clone());
                         summary.rendered += 1;
                         observer(Event::Pair(&r));
-                        kept.push(r);
+                        kept.push(*r);
                     }
                 }
                 Msg::Failed(f) => {
@@ -562,7 +562,7 @@ impl Context<'_> {
                 &pair_labels,
             );
             let msg = match result {
-                Ok((params, reference_source)) => Msg::Pair(Record {
+                Ok((params, reference_source)) => Msg::Pair(Box::new(Record {
                     id: id.clone(),
                     index,
                     clean_source: source.to_string_lossy().into_owned(),
@@ -584,7 +584,7 @@ impl Context<'_> {
                         .then(|| format!("{LIGHTFIELD_DIR}/{id}.png")),
                     labels: pair_labels.labels.map(|(f, _)| f),
                     mask: pair_labels.mask.map(|(f, _)| f),
-                }),
+                })),
                 Err(reason) => Msg::Failed(Failure {
                     source: source.to_string_lossy().into_owned(),
                     ids: vec![id],

@@ -18,8 +18,10 @@ struct Set {
     masks: PathBuf,
 }
 
-/// The rectangles `[x, y, w, h]` of each image, with their category.
-const OBJECTS: [(&str, u32, u32, [u32; 4], [u32; 4]); 2] = [
+/// An image's name, width and height, and its two rectangles `[x, y, w, h]` (categories 1, 2).
+type Objects = (&'static str, u32, u32, [u32; 4], [u32; 4]);
+
+const OBJECTS: [Objects; 2] = [
     ("a", 80, 40, [30, 10, 20, 20], [0, 0, 12, 40]),
     ("b", 60, 60, [10, 20, 30, 16], [44, 40, 16, 20]),
 ];
