@@ -362,6 +362,7 @@ def depth(clean: ImageLike) -> np.ndarray:
 
 from . import metrics  # noqa: E402
 from .augment import UnderwaterAugment  # noqa: E402
+from .dataset import PairDataset, webdataset_urls  # noqa: E402
 
 __all__ = [
     "DEVICES",
@@ -370,10 +371,12 @@ __all__ = [
     "HAS_BUNDLED_GAN",
     "LIGHT_FIELD_MAPS",
     "METHODS",
+    "PairDataset",
     "Reference",
     "Renderer",
     "UnderwaterAugment",
     "depth",
     "lightfield",
     "metrics",
+    "webdataset_urls",
 ]
