@@ -74,12 +74,12 @@ def _read_mask(path: str) -> np.ndarray:
     with Image.open(path) as img:
         img.load()
         mode = img.mode
-        arr = np.asarray(img)
+        arr = np.array(img)  # a copy: writable, as every array of an item
     if mode == "1":
         return arr.astype(np.uint8)
     if mode.startswith("I;16") or (mode == "I" and _png_bit_depth(path) == 16):
         return arr.astype(np.uint16)
-    return np.ascontiguousarray(arr)
+    return arr
 
 
 def _coco_labels(path: str) -> Tuple[np.ndarray, np.ndarray, List[Dict[str, Any]]]:
