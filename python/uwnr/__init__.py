@@ -21,6 +21,10 @@ Images are NumPy arrays (HxWx3, HxWx4 with alpha dropped, or HxW grey; uint8, ui
 paths give uint8 arrays). Depth maps are HxW in [0, 1] with bright = far; without one the built-in
 prior is used, as on the command line.
 
+For training data: :class:`UnderwaterAugment` (also a step of torchvision's ``transforms.v2``
+pipelines, labels passing through; :mod:`uwnr.albumentations` for Albumentations) and
+:class:`PairDataset`, a torch-free reader of the folders ``uwnr dataset`` writes.
+
 Errors: ``ValueError`` for shapes, dtypes, value ranges and options; ``TypeError`` for objects
 that are not images; ``FileNotFoundError`` for missing files; :class:`uwnr.Error` for weights,
 model and rendering problems.
