@@ -194,16 +194,16 @@ def coco_boxes():
 @pytest.mark.parametrize("fmt", ["pascal_voc", "coco"])
 @pytest.mark.parametrize("method", method_params())
 @pytest.mark.filterwarnings("ignore:Got processor for bboxes, but no transform to process it")
-def test_albumentations_compose_keeps_boxes_and_masks(A, AlbuAugment, refs, clean, fmt, method,
-                                                      request):
+def test_albumentations_compose_keeps_boxes_and_masks(
+    A, AlbuAugment, refs, clean, fmt, method, request
+):
     needs_model(method, request)
     boxes = BOXES if fmt == "pascal_voc" else coco_boxes()
     params = dict(bbox_params=A.BboxParams(format=fmt, label_fields=["labels"]), seed=0)
     uw = AlbuAugment(refs, methods=[method], p=1.0)
     out = A.Compose([uw], **params)(image=clean, mask=a_mask(), bboxes=boxes, labels=LABELS)
     # Albumentations round-trips boxes through normalised floats; the render adds nothing to that.
-    plain = A.Compose([A.NoOp()], **params)(image=clean, mask=a_mask(), bboxes=boxes,
-                                            labels=LABELS)
+    plain = A.Compose([A.NoOp()], **params)(image=clean, mask=a_mask(), bboxes=boxes, labels=LABELS)
     np.testing.assert_array_equal(out["bboxes"], plain["bboxes"])
     np.testing.assert_allclose(out["bboxes"], boxes, atol=1e-4)
     assert list(out["labels"]) == LABELS
@@ -212,8 +212,7 @@ def test_albumentations_compose_keeps_boxes_and_masks(A, AlbuAugment, refs, clea
     assert (out["image"] != clean).mean() > 0.5
 
 
-def test_albumentations_flip_after_the_render_moves_the_boxes_as_usual(A, AlbuAugment, refs,
-                                                                        clean):
+def test_albumentations_flip_after_the_render_moves_the_boxes_as_usual(A, AlbuAugment, refs, clean):
     params = dict(bbox_params=A.BboxParams(format="pascal_voc", label_fields=["labels"]), seed=0)
     uw = AlbuAugment(refs, methods=["jerlov", "reinhard"], p=1.0, render_seed=2)
     out = A.Compose([uw, A.HorizontalFlip(p=1.0)], **params)(
@@ -245,8 +244,14 @@ def test_albumentations_transform_pickles_and_describes_itself(A, AlbuAugment, r
     assert copy.augment._renderers == {}  # rebuilt on first use, as in a spawned worker
     assert np.array_equal(copy(image=clean)["image"], make()(image=clean)["image"])
     names = uw.get_transform_init_args_names()
-    assert set(names) == {"references", "methods", "render_seed", "weights", "method_options",
-                          "device"}
+    assert set(names) == {
+        "references",
+        "methods",
+        "render_seed",
+        "weights",
+        "method_options",
+        "device",
+    }
     d = A.to_dict(uw)["transform"]
     assert d["p"] == 1.0 and d["render_seed"] == 9 and d["methods"] == ["jerlov", "reinhard"]
     assert "render_seed=9" in repr(uw)

@@ -74,15 +74,27 @@ def make_folder(root, labels="coco", names=("scene_0", "scene_1")):
             annotations = []
             if index == 0:
                 annotations = [
-                    {"id": i + 1, "image_id": 1, "category_id": c, "bbox": b,
-                     "area": b[2] * b[3], "iscrowd": 0,
-                     "segmentation": [[b[0], b[1], b[0] + b[2], b[1], b[0], b[1] + b[3]]]}
+                    {
+                        "id": i + 1,
+                        "image_id": 1,
+                        "category_id": c,
+                        "bbox": b,
+                        "area": b[2] * b[3],
+                        "iscrowd": 0,
+                        "segmentation": [[b[0], b[1], b[0] + b[2], b[1], b[0], b[1] + b[3]]],
+                    }
                     for i, (c, b) in enumerate(zip(CATEGORIES, COCO_BOXES))
                 ]
                 annotations[1]["segmentation"] = {"size": [H, W], "counts": "abc"}
             doc = {
-                "image": {"id": index + 1, "file_name": record["underwater"], "width": W,
-                          "height": H, "clean_file_name": record["clean"], "source_id": 100},
+                "image": {
+                    "id": index + 1,
+                    "file_name": record["underwater"],
+                    "width": W,
+                    "height": H,
+                    "clean_file_name": record["clean"],
+                    "source_id": 100,
+                },
                 "annotations": annotations,
             }
             (root / "labels" / f"{name}.json").write_text(json.dumps(doc))
@@ -253,14 +265,19 @@ def test_webdataset_urls_lists_the_shards(tmp_path):
     record = written["scene_0"]["record"]
     key = f"{record['index']:08d}-{record['id'].replace('.', '_')}"
     with tarfile.open(shards / "uwnr-000000.tar", "w") as tar:
-        for suffix, path in [("underwater.png", "underwater/scene_0.png"),
-                             ("clean.png", "clean/scene_0.png"),
-                             ("labels.json", "labels/scene_0.json")]:
+        for suffix, path in [
+            ("underwater.png", "underwater/scene_0.png"),
+            ("clean.png", "clean/scene_0.png"),
+            ("labels.json", "labels/scene_0.json"),
+        ]:
             tar.add(tmp_path / path, arcname=f"{key}.{suffix}")
         (tmp_path / "line.json").write_text(json.dumps(record))
         tar.add(tmp_path / "line.json", arcname=f"{key}.json")
-    index = {"shards": [{"file": "uwnr-000000.tar", "pairs": 1, "bytes": 0}], "pairs": 1,
-             "pattern": "uwnr-{000000..000000}.tar"}
+    index = {
+        "shards": [{"file": "uwnr-000000.tar", "pairs": 1, "bytes": 0}],
+        "pairs": 1,
+        "pattern": "uwnr-{000000..000000}.tar",
+    }
     (shards / "index.json").write_text(json.dumps(index))
     urls = uwnr.webdataset_urls(tmp_path)
     assert urls == [str(shards / "uwnr-000000.tar")]

@@ -125,8 +125,12 @@ def _yolo_labels(
             cx, cy, w, h = values
             rows.append({"class": cls, "box": values})
             boxes.append(
-                ((cx - w / 2) * width, (cy - h / 2) * height, (cx + w / 2) * width,
-                 (cy + h / 2) * height)
+                (
+                    (cx - w / 2) * width,
+                    (cy - h / 2) * height,
+                    (cx + w / 2) * width,
+                    (cy + h / 2) * height,
+                )
             )
         elif len(values) >= 6 and len(values) % 2 == 0:
             xs, ys = values[0::2], values[1::2]
