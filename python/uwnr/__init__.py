@@ -21,6 +21,10 @@ Images are NumPy arrays (HxWx3, HxWx4 with alpha dropped, or HxW grey; uint8, ui
 paths give uint8 arrays). Depth maps are HxW in [0, 1] with bright = far; without one the built-in
 prior is used, as on the command line.
 
+For training data: :class:`UnderwaterAugment` (also a step of torchvision's ``transforms.v2``
+pipelines, labels passing through; :mod:`uwnr.albumentations` for Albumentations) and
+:class:`PairDataset`, a torch-free reader of the folders ``uwnr dataset`` writes.
+
 Errors: ``ValueError`` for shapes, dtypes, value ranges and options; ``TypeError`` for objects
 that are not images; ``FileNotFoundError`` for missing files; :class:`uwnr.Error` for weights,
 model and rendering problems.
@@ -362,6 +366,7 @@ def depth(clean: ImageLike) -> np.ndarray:
 
 from . import metrics  # noqa: E402
 from .augment import UnderwaterAugment  # noqa: E402
+from .dataset import PairDataset, webdataset_urls  # noqa: E402
 
 __all__ = [
     "DEVICES",
@@ -370,10 +375,12 @@ __all__ = [
     "HAS_BUNDLED_GAN",
     "LIGHT_FIELD_MAPS",
     "METHODS",
+    "PairDataset",
     "Reference",
     "Renderer",
     "UnderwaterAugment",
     "depth",
     "lightfield",
     "metrics",
+    "webdataset_urls",
 ]

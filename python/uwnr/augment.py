@@ -24,13 +24,14 @@ them (DataLoader workers started with ``spawn`` rebuild them on first use) and i
 
 from __future__ import annotations
 
+import copy
 import os
 import sys
-from typing import Any, Dict, List, Optional, Sequence, Union
+from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
-from . import METHODS, Reference, Renderer
+from . import METHODS, Reference, Renderer, _convert
 
 #: File extensions read from a references folder (as the command line reads them).
 IMAGE_EXTENSIONS = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp")
@@ -70,6 +71,90 @@ def _torch_worker_seed() -> Optional[int]:
     return None if info is None else int(info.seed)
 
 
+def _tv_tensors() -> Any:
+    """torchvision's ``tv_tensors`` module if the program has imported it, else ``None``: a
+    tv_tensor can only exist once it has been imported, so uwnr never imports it itself."""
+    return sys.modules.get("torchvision.tv_tensors")
+
+
+def _flatten(x: Any, out: List[Any]) -> None:
+    """The leaves of a sample, depth first, in the order of torch's ``tree_flatten``: tuples
+    (named tuples too), lists and dicts (in key order) are containers, anything else a leaf."""
+    if isinstance(x, (tuple, list)):
+        for item in x:
+            _flatten(item, out)
+    elif isinstance(x, dict):
+        for item in x.values():
+            _flatten(item, out)
+    else:
+        out.append(x)
+
+
+def _unflatten(x: Any, leaves: List[Any]) -> Tuple[Any, List[Any]]:
+    """``x``'s structure rebuilt around ``leaves`` (as :func:`_flatten` listed them); returns the
+    rebuilt sample and the leaves left over."""
+    if isinstance(x, (tuple, list)):
+        items = []
+        for item in x:
+            new, leaves = _unflatten(item, leaves)
+            items.append(new)
+        if isinstance(x, list):
+            return items, leaves
+        if hasattr(x, "_fields"):  # a named tuple
+            return type(x)(*items), leaves
+        return tuple(items), leaves
+    if isinstance(x, dict):
+        out = copy.copy(x)  # keeps the dict's type (OrderedDict, defaultdict, ...)
+        for key, item in x.items():
+            out[key], leaves = _unflatten(item, leaves)
+        return out, leaves
+    return leaves[0], leaves[1:]
+
+
+def _image_slots(leaves: List[Any]) -> List[int]:
+    """Which leaves of a sample are images to render, as torchvision v2 decides: every
+    ``tv_tensors.Image`` and PIL image; without one, the first plain tensor (a tensor that is no
+    tv_tensor); without any tensor, the first NumPy array (torchvision never transforms arrays, so
+    this is uwnr's own rule). Boxes, masks, labels and everything else are passed through."""
+    tv = _tv_tensors()
+    torch = sys.modules.get("torch")
+    explicit = []
+    for i, leaf in enumerate(leaves):
+        if tv is not None and isinstance(leaf, tv.Video):
+            raise TypeError(
+                "UnderwaterAugment renders images, not videos: render a tv_tensors.Video's "
+                "frames one by one"
+            )
+        if (tv is not None and isinstance(leaf, tv.Image)) or _convert._is_pil(leaf):
+            explicit.append(i)
+    if explicit:
+        return explicit
+    if torch is not None:
+        for i, leaf in enumerate(leaves):
+            is_tv_tensor = tv is not None and isinstance(leaf, tv.TVTensor)
+            if isinstance(leaf, torch.Tensor) and not is_tv_tensor:
+                return [i]
+    for i, leaf in enumerate(leaves):
+        if isinstance(leaf, np.ndarray):
+            return [i]
+    kinds = ", ".join(sorted({type(leaf).__name__ for leaf in leaves})) or "nothing"
+    raise TypeError(
+        "UnderwaterAugment found no image in the sample (a tv_tensors.Image, a PIL image, a "
+        f"tensor or a NumPy array); it holds {kinds}"
+    )
+
+
+def _render_keeping_type(
+    renderer: Renderer, x: Any, reference: Optional[Reference], depth: Any, seed: int
+) -> Any:
+    """``renderer.render`` that also keeps a ``tv_tensors.Image`` a ``tv_tensors.Image``."""
+    out = renderer.render(x, reference, depth, seed=seed)
+    tv = _tv_tensors()
+    if tv is not None and isinstance(x, tv.TVTensor):
+        return tv.wrap(out, like=x)
+    return out
+
+
 class UnderwaterAugment:
     """An augmentation that renders its input underwater with probability ``p``.
 
@@ -88,6 +173,24 @@ class UnderwaterAugment:
     array of the same dtype, a torch CHW tensor a tensor of the same dtype and device.
     ``aug(x, depth=d)`` uses a depth map (HxW in [0, 1], bright = far) instead of the built-in
     prior.
+
+    Samples with labels. Called as a step of ``torchvision.transforms.v2.Compose``, on
+    ``(image, target)``, ``(image, boxes, mask)``, a tuple or a dict, the augmentation renders
+    the sample's image and returns the same structure with every other object (``BoundingBoxes``,
+    ``Mask``, label tensors, dicts of them) the very same object: rendering keeps the geometry, so
+    every label stays true. The image is what torchvision v2 takes as the image: every
+    ``tv_tensors.Image`` and PIL image in the sample; without one, the first plain tensor (CHW);
+    without any tensor, the first NumPy array (HxWxC). A ``tv_tensors.Image`` comes back a
+    ``tv_tensors.Image``. When the draw says not to render, the sample itself is returned. torch
+    and torchvision are never imported by uwnr: they are looked up only when the sample holds
+    their objects.
+
+    >>> from torchvision import tv_tensors
+    >>> from torchvision.transforms import v2
+    >>> pipeline = v2.Compose([uwnr.UnderwaterAugment("refs/", p=0.5), v2.RandomHorizontalFlip()])
+    >>> image, target = pipeline(tv_tensors.Image(img), {"boxes": boxes, "labels": labels})
+
+    For Albumentations use :class:`uwnr.albumentations.UnderwaterAugment`.
     """
 
     def __init__(
@@ -161,7 +264,20 @@ class UnderwaterAugment:
             self._cache[i] = ref
         return ref
 
-    def __call__(self, x: Any, depth: Any = None) -> Any:
+    def __call__(self, *inputs: Any, depth: Any = None) -> Any:
+        """Renders the image of a sample with probability ``p``.
+
+        ``aug(x)`` with one image (array, PIL image, torch CHW tensor, path) returns the render in
+        ``x``'s kind. ``aug(image, target)``, ``aug((image, target))`` or ``aug({"image": ...,
+        ...})`` render the sample's image (found as described in the class docs) and return the
+        same structure, every other object in it the same object, untouched; this is how
+        ``torchvision.transforms.v2.Compose`` calls a transform. ``depth`` (keyword only) replaces
+        the built-in depth prior for the image.
+        """
+        if not inputs:
+            raise TypeError("UnderwaterAugment() takes an image or a sample, got nothing")
+        sample = inputs if len(inputs) > 1 else inputs[0]
+        structured = len(inputs) > 1 or isinstance(sample, (tuple, list, dict))
         rng = self._generator()
         # Every call takes the same four draws, so whether a call renders does not shift the
         # stream of later calls.
@@ -169,15 +285,28 @@ class UnderwaterAugment:
         method = self.methods[int(rng.integers(len(self.methods)))]
         ref_index = int(rng.integers(len(self._references)))
         render_seed = int(rng.integers(0, 2**63))
+        if structured:
+            # Checked before the draw takes effect, so a sample the augmentation cannot read fails
+            # on the first call whatever p is.
+            leaves: List[Any] = []
+            _flatten(sample, leaves)
+            slots = _image_slots(leaves)
         if not apply:
-            return x
+            return sample
         renderer = self._renderers.get(method)
         if renderer is None:
             renderer = self._renderers[method] = self._make_renderer(method)
         # A method that reads no reference is not given one (nor made to decode it).
         reads = renderer.reference_use != "ignored"
         reference = self._reference(ref_index) if reads else None
-        return renderer.render(x, reference, depth, seed=render_seed)
+        if not structured:
+            return _render_keeping_type(renderer, sample, reference, depth, render_seed)
+        # Every image of one sample is rendered with the same draws.
+        for i in slots:
+            leaves[i] = _render_keeping_type(renderer, leaves[i], reference, depth, render_seed)
+        out, rest = _unflatten(sample, leaves)
+        assert not rest
+        return out
 
     def __getstate__(self) -> Dict[str, Any]:
         state = self.__dict__.copy()
