@@ -26,7 +26,10 @@ pub const CLEAN_DIR: &str = "clean";
 pub const DEPTH_DIR: &str = "depth";
 /// Folder of the light-field maps the network saw, at the pair's size.
 pub const LIGHTFIELD_DIR: &str = "lightfield";
-pub use crate::labels::{LABELS_DIR, MASKS_DIR};
+/// Folder of the pairs' label files (`NAME_k.json` for COCO, `NAME_k.txt` for YOLO).
+pub const LABELS_DIR: &str = "labels";
+/// Folder of the pairs' label masks.
+pub const MASKS_DIR: &str = "masks";
 /// Every folder that holds pair files.
 pub const PAIR_DIRS: [&str; 6] = [
     UNDERWATER_DIR,
@@ -284,6 +287,28 @@ pub fn shard_of_file(name: &str, prefix: &str) -> Option<Shard> {
     let (i, n) = rest.split_once("-of-")?;
     let (index, count) = (i.parse().ok()?, n.parse().ok()?);
     (index < count).then_some(Shard { index, count })
+}
+
+/// The manifests and failure lists of a dataset folder: `manifest.jsonl` and any
+/// `manifest.shard-I-of-N.jsonl` (likewise `failed*.jsonl`).
+pub fn metadata_files(out: &Path) -> Result<(Vec<String>, Vec<String>)> {
+    let mut manifests = Vec::new();
+    let mut failed = Vec::new();
+    for entry in std::fs::read_dir(out).map_err(io_err(out))? {
+        let name = entry
+            .map_err(io_err(out))?
+            .file_name()
+            .to_string_lossy()
+            .into_owned();
+        if name == "manifest.jsonl" || shard_of_file(&name, "manifest").is_some() {
+            manifests.push(name);
+        } else if name == "failed.jsonl" || shard_of_file(&name, "failed").is_some() {
+            failed.push(name);
+        }
+    }
+    manifests.sort();
+    failed.sort();
+    Ok((manifests, failed))
 }
 
 /// A manifest as read from disk.

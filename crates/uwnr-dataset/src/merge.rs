@@ -11,11 +11,10 @@ use std::path::{Path, PathBuf};
 
 use crate::error::{DatasetError, Result, io_err};
 use crate::manifest::{
-    Failure, Record, Settings, failed_ids, read_failures, read_manifest, shard_of_file,
-    write_failures, write_manifest,
+    Failure, Record, Settings, failed_ids, metadata_files, read_failures, read_manifest,
+    shard_of_file, write_failures, write_manifest,
 };
 use crate::plan::Shard;
-use crate::verify::metadata_files;
 
 /// What a merge did.
 #[derive(Debug, Default)]

@@ -14,7 +14,7 @@ use crate::error::{Result, io_err};
 use crate::labels::mask::LabelImage;
 use crate::labels::{COCO_FILE, LABELS_DIR, MASKS_DIR, yolo};
 use crate::manifest::{
-    PAIR_DIRS, Record, Settings, failed_ids, read_failures, read_manifest, shard_of_file,
+    PAIR_DIRS, Record, Settings, failed_ids, metadata_files, read_failures, read_manifest,
     temp_target,
 };
 use crate::plan::Size;
@@ -41,28 +41,6 @@ impl Report {
     pub fn ok(&self) -> bool {
         self.problems.is_empty()
     }
-}
-
-/// The manifests and failure lists of a dataset folder: `manifest.jsonl` and any
-/// `manifest.shard-I-of-N.jsonl` (likewise `failed*.jsonl`).
-pub fn metadata_files(out: &Path) -> Result<(Vec<String>, Vec<String>)> {
-    let mut manifests = Vec::new();
-    let mut failed = Vec::new();
-    for entry in std::fs::read_dir(out).map_err(io_err(out))? {
-        let name = entry
-            .map_err(io_err(out))?
-            .file_name()
-            .to_string_lossy()
-            .into_owned();
-        if name == "manifest.jsonl" || shard_of_file(&name, "manifest").is_some() {
-            manifests.push(name);
-        } else if name == "failed.jsonl" || shard_of_file(&name, "failed").is_some() {
-            failed.push(name);
-        }
-    }
-    manifests.sort();
-    failed.sort();
-    Ok((manifests, failed))
 }
 
 /// Verifies the dataset in `out`. `progress(done, total)` is called as pairs are checked (from

@@ -233,7 +233,7 @@ fn write_member(w: &mut dyn Write, name: &str, data: &[u8]) -> Result<()> {
 fn finished_records(out: &Path) -> Result<Vec<Record>> {
     let path = out.join("manifest.jsonl");
     if !path.is_file() {
-        let (m, _) = crate::verify::metadata_files(out)?;
+        let (m, _) = crate::manifest::metadata_files(out)?;
         return Err(DatasetError::Invalid(if m.is_empty() {
             format!(
                 "{} has no manifest.jsonl: no pair was made yet",

@@ -25,11 +25,9 @@ use uwnr_core::io::DecodeLimits;
 pub use geometry::Fit;
 
 use crate::error::{DatasetError, Result, io_err};
+use crate::manifest::Record;
 
-/// Folder of the pairs' label files.
-pub const LABELS_DIR: &str = "labels";
-/// Folder of the pairs' label masks.
-pub const MASKS_DIR: &str = "masks";
+pub use crate::manifest::{LABELS_DIR, MASKS_DIR};
 /// The assembled COCO file.
 pub const COCO_FILE: &str = "coco.json";
 
@@ -367,11 +365,7 @@ impl CleanLabels {
 
 /// Writes `OUT/coco.json` from the pairs' labels files (when the dataset has COCO labels),
 /// atomically; `records` in pair order.
-pub fn write_coco(
-    out: &Path,
-    settings_labels: Option<&Value>,
-    records: &[crate::Record],
-) -> Result<()> {
+pub fn write_coco(out: &Path, settings_labels: Option<&Value>, records: &[Record]) -> Result<()> {
     let Some(s) = settings_labels.filter(|s| s["format"] == "coco") else {
         return Ok(());
     };
