@@ -125,6 +125,44 @@ fn beside(dir: &Path, rel: &str, ext: &str) -> Option<PathBuf> {
     p.is_file().then_some(p)
 }
 
+/// For each clean image (at `rel`), its file in the folder `dir` given as `flag`: refused when the
+/// folder is missing or matches no image; a note says how many have none and what that means.
+fn match_files(
+    dir: &Path,
+    flag: &str,
+    what: &str,
+    rel: &[String],
+    ext: &str,
+    notes: &mut Vec<String>,
+    without: &str,
+) -> Result<Vec<Option<PathBuf>>> {
+    if !dir.is_dir() {
+        return Err(DatasetError::Invalid(format!(
+            "{flag} {} is not a folder",
+            dir.display()
+        )));
+    }
+    let files: Vec<Option<PathBuf>> = rel.iter().map(|r| beside(dir, r, ext)).collect();
+    let found = files.iter().filter(|f| f.is_some()).count();
+    if found == 0 {
+        return Err(DatasetError::Invalid(format!(
+            "{flag} {}: no {what} matches the clean images (looked for {})",
+            dir.display(),
+            dir.join(&rel[0]).with_extension(ext).display()
+        )));
+    }
+    if found < rel.len() {
+        notes.push(format!(
+            "{} of {} clean images have no {what} in {}: {}",
+            rel.len() - found,
+            rel.len(),
+            dir.display(),
+            without
+        ));
+    }
+    Ok(files)
+}
+
 fn fingerprint(bytes: &[u8]) -> String {
     uwnr_render::record::fingerprint(bytes)
 }
@@ -192,30 +230,15 @@ impl Labels {
             });
         }
         if let Some(dir) = &inputs.yolo {
-            if !dir.is_dir() {
-                return Err(DatasetError::Invalid(format!(
-                    "--yolo {} is not a folder of label files",
-                    dir.display()
-                )));
-            }
-            let files: Vec<Option<PathBuf>> = rel.iter().map(|r| beside(dir, r, "txt")).collect();
-            let found = files.iter().filter(|f| f.is_some()).count();
-            if found == 0 {
-                return Err(DatasetError::Invalid(format!(
-                    "--yolo {}: no label file matches the clean images (looked for {})",
-                    dir.display(),
-                    dir.join(&rel[0]).with_extension("txt").display()
-                )));
-            }
-            if found < cleans.len() {
-                notes.push(format!(
-                    "{} of {} clean images have no YOLO label file in {}: written as empty label \
-                     files (no objects), as YOLO reads a missing file",
-                    cleans.len() - found,
-                    cleans.len(),
-                    dir.display()
-                ));
-            }
+            let files = match_files(
+                dir,
+                "--yolo",
+                "label file",
+                &rel,
+                "txt",
+                notes,
+                "written as empty label files (no objects), as YOLO reads a missing file",
+            )?;
             // The settings remember the label files' contents, so a resume notices edits.
             let mut all = Vec::new();
             for (r, f) in rel.iter().zip(&files) {
@@ -237,30 +260,15 @@ impl Labels {
             });
         }
         if let Some(dir) = &inputs.masks {
-            if !dir.is_dir() {
-                return Err(DatasetError::Invalid(format!(
-                    "--masks {} is not a folder of label masks",
-                    dir.display()
-                )));
-            }
-            let files: Vec<Option<PathBuf>> = rel.iter().map(|r| beside(dir, r, "png")).collect();
-            let found = files.iter().filter(|f| f.is_some()).count();
-            if found == 0 {
-                return Err(DatasetError::Invalid(format!(
-                    "--masks {}: no PNG mask matches the clean images (looked for {})",
-                    dir.display(),
-                    dir.join(&rel[0]).with_extension("png").display()
-                )));
-            }
-            if found < cleans.len() {
-                notes.push(format!(
-                    "{} of {} clean images have no mask in {}: their pairs are not made (listed \
-                     in failed.jsonl)",
-                    cleans.len() - found,
-                    cleans.len(),
-                    dir.display()
-                ));
-            }
+            let files = match_files(
+                dir,
+                "--masks",
+                "PNG mask",
+                &rel,
+                "png",
+                notes,
+                "their pairs are not made (listed in failed.jsonl)",
+            )?;
             out.settings_masks = Some(json!({ "dir": dir.to_string_lossy() }));
             out.masks = Some((dir.clone(), files));
         }
