@@ -10,3 +10,4 @@ mod experiment;
 mod gan;
 mod golden;
 mod haze;
+mod serve;
