@@ -24,6 +24,7 @@ const QUEUE: usize = 8;
 ///   the engine keeps a buffer pool that uwnr-engine trims to 64 MB when shapes change;
 /// - the HTTP side is bounded: 8 handler threads, 64 waiting connections, 64 KiB bodies; the
 ///   render queue holds 8 requests; finished results are PNGs of a few kB here.
+///
 /// That sums to about 140 MB; 256 MB leaves room for allocator slack. An unbounded server (a
 /// thread or a buffered request per client, results never freed) is what this guards against;
 /// measured in this test: 82 MB.
