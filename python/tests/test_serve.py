@@ -201,6 +201,12 @@ def test_the_page_compares_methods_and_its_commands_reproduce_them(server, brows
     wait.until(lambda d: len(d.find_elements(By.CSS_SELECTOR, "#ref-grid .ref.selected")) == 2)
     wait.until(lambda d: all_done(d, 0) and all_done(d, 1))
     cell(browser, "uwnr").click()
+    # The before/after slider at 70 %: the clean photo shows on the right of each render.
+    browser.execute_script(
+        "const s = document.getElementById('split'); s.value = 70;"
+        " s.dispatchEvent(new Event('input'));"
+    )
+    time.sleep(1.2)  # one status poll, so the header shows the idle queue
     shot = Path(os.environ.get("UWNR_SCREENSHOT") or tmp_path / "serve.png")
     assert browser.save_screenshot(str(shot))
     assert Image.open(shot).size[0] >= 1000

@@ -441,7 +441,7 @@ async function pollStatus() {
   } catch (e) {
     $("status").textContent = `server unreachable: ${e.message}`;
   }
-  setTimeout(pollStatus, 2000);
+  setTimeout(pollStatus, 1000);
 }
 
 async function main() {

@@ -98,6 +98,8 @@ struct RefInfo {
 pub struct Engine {
     config: ServeConfig,
     cleans: Library,
+    /// The depth map beside each clean image (`X/rgb/NAME` with `X/depth/`), found once.
+    beside: Vec<Option<PathBuf>>,
     refs: Library,
     limits: DecodeLimits,
     upload_dir: tempfile::TempDir,
@@ -121,9 +123,11 @@ impl Engine {
             max_pixels: config.max_pixels,
             max_dimension: config.max_dimension,
         };
+        let beside = beside_maps(&cleans);
         let engine = Self {
             config,
             cleans,
+            beside,
             refs,
             limits,
             upload_dir,
@@ -251,18 +255,16 @@ impl Engine {
         }
     }
 
-    /// The map in `X/depth/` beside clean image `i` (`X/rgb/NAME`), resolved inside the clean
-    /// folder.
+    /// The map in `X/depth/` beside clean image `i` (`X/rgb/NAME`), inside the clean folder.
     fn beside_map(&self, i: usize) -> Result<Option<PathBuf>> {
-        let path = self.cleans.path(i)?;
-        let maps = uwnr_depth::beside_maps(&[path.to_path_buf()])
-            .map_err(|e| ServeError::BadRequest(e.to_string()))?;
-        Ok(maps
-            .into_iter()
-            .next()
-            .flatten()
-            .and_then(|m| m.canonicalize().ok())
-            .filter(|m| m.starts_with(self.cleans.root())))
+        self.cleans.path(i)?;
+        Ok(self.beside.get(i).cloned().flatten())
+    }
+
+    /// The folder dropped images are kept in (removed when the server is dropped).
+    #[must_use]
+    pub fn upload_dir(&self) -> &Path {
+        self.upload_dir.path()
     }
 
     /// The depth of `clean` as `uwnr render` computes it (`--depth FILE` for a map).
@@ -487,6 +489,23 @@ impl Engine {
         }
         Ok(json!({ "id": id, "name": name, "width": img.width(), "height": img.height() }))
     }
+}
+
+/// The depth map beside each clean image, resolved inside the clean folder (each `depth/`
+/// folder listed once).
+fn beside_maps(cleans: &Library) -> Vec<Option<PathBuf>> {
+    let inside: Vec<(usize, PathBuf)> = (0..cleans.len())
+        .filter_map(|i| Some((i, cleans.path(i).ok()?.to_path_buf())))
+        .collect();
+    let paths: Vec<PathBuf> = inside.iter().map(|(_, p)| p.clone()).collect();
+    let found = uwnr_depth::beside_maps(&paths).unwrap_or_else(|_| vec![None; paths.len()]);
+    let mut out = vec![None; cleans.len()];
+    for ((i, _), map) in inside.into_iter().zip(found) {
+        out[i] = map
+            .and_then(|m| m.canonicalize().ok())
+            .filter(|m| m.starts_with(cleans.root()));
+    }
+    out
 }
 
 /// The engine and its pool: what every request handler shares.

@@ -40,6 +40,13 @@ pub fn run(a: &ServeArgs) -> Result<ExitCode> {
     );
     // The address on stdout, alone on its line, for scripts and tests to read.
     println!("serving on {}", server.url());
+    // Ctrl-C ends the process without running destructors: remove the dropped images first.
+    let uploads = server.engine().upload_dir().to_path_buf();
+    ctrlc::set_handler(move || {
+        let _ = std::fs::remove_dir_all(&uploads);
+        std::process::exit(130);
+    })
+    .context("installing the Ctrl-C handler")?;
     eprintln!("press Ctrl-C to stop");
     server.wait();
     Ok(ExitCode::SUCCESS)
