@@ -237,6 +237,41 @@ fn uploads_are_capped_and_bad_images_are_answered_with_a_message() {
         cmd.starts_with("uwnr render 'my photo.png' --reference "),
         "{cmd}"
     );
+    // A dropped depth map: shown, rendered with, named in the command; not a photo.
+    let mut map = Vec::new();
+    image::GrayImage::from_fn(20, 10, |x, _| image::Luma([(x * 12) as u8]))
+        .write_to(&mut std::io::Cursor::new(&mut map), image::ImageFormat::Png)
+        .unwrap();
+    let (status, d) = f.json("POST", "/api/upload?kind=depth&name=far.png", &map);
+    assert_eq!(status, 200, "{d}");
+    let id = d["id"].as_str().unwrap();
+    let (status, _) = f.get(&format!(
+        "/api/clean/depth?clean={}&depth={id}",
+        up["id"].as_str().unwrap()
+    ));
+    assert_eq!(status, 200);
+    let (answer, s) = f.render(&json!({
+        "view": "v", "clean": {"upload": up["id"]}, "depth": {"upload": id}, "reference": 1,
+        "options": {"method": "jerlov", "depth_scale": [2.0, 2.0]}
+    }));
+    assert_eq!(s["state"], "done", "{s}");
+    let cmd = answer["render_command"].as_str().unwrap();
+    assert!(
+        cmd.contains(" --depth-scale 2 --depth far.png --seed 0 "),
+        "{cmd}"
+    );
+    let (status, body) = f.json(
+        "POST",
+        "/api/render",
+        json!({"view": "w", "clean": {"upload": id}, "reference": 0, "options": {"method": "reinhard"}})
+            .to_string()
+            .as_bytes(),
+    );
+    assert_eq!(status, 400);
+    assert!(
+        body["error"].as_str().unwrap().contains("is a depth map"),
+        "{body}"
+    );
     // The server still answers.
     assert_eq!(f.get("/api/info").0, 200);
 }
