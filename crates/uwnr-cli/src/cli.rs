@@ -43,6 +43,44 @@ pub enum Command {
     /// The UWGAN-style GAN baseline: `gan train` learns image-formation parameters from unpaired
     /// clean images (with depth) and real underwater images; `render --method uwgan` uses it.
     Gan(GanArgs),
+    /// Start a local web page to pick a clean image and references and compare every method's
+    /// render side by side, with the commands that reproduce them (127.0.0.1 only by default).
+    Serve(ServeArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct ServeArgs {
+    /// Folder of clean photos (searched recursively, as `uwnr dataset --clean` lists them).
+    #[arg(long, value_name = "DIR")]
+    pub clean: PathBuf,
+    /// Folder of real underwater references (searched recursively).
+    #[arg(long, value_name = "DIR")]
+    pub references: PathBuf,
+    /// Port to listen on (0: any free port).
+    #[arg(long, default_value_t = uwnr_serve::DEFAULT_PORT)]
+    pub port: u16,
+    /// Address to listen on. The default serves this machine only; another address exposes the
+    /// page (and your photos) to the network.
+    #[arg(long, default_value = "127.0.0.1")]
+    pub host: std::net::IpAddr,
+    /// Longer side of the previews, pixels.
+    #[arg(long, value_name = "PIXELS", default_value_t = uwnr_serve::DEFAULT_PREVIEW_SIZE)]
+    pub preview_size: usize,
+    /// Largest dropped file, MiB.
+    #[arg(long, value_name = "MIB", default_value_t = uwnr_serve::DEFAULT_MAX_UPLOAD_BYTES / (1024 * 1024))]
+    pub max_upload_mb: u64,
+    /// Largest image accepted (dropped or in the folders), pixels.
+    #[arg(long, value_name = "PIXELS", default_value_t = uwnr_serve::DEFAULT_MAX_PIXELS)]
+    pub max_pixels: u64,
+    /// Largest side of an image accepted, pixels.
+    #[arg(long, value_name = "PIXELS", default_value_t = uwnr_serve::DEFAULT_MAX_DIMENSION)]
+    pub max_dimension: u32,
+    /// Render threads (default: the CPU cores, at most 4).
+    #[arg(long, value_name = "N")]
+    pub workers: Option<usize>,
+    /// Renders waiting before new requests are refused (HTTP 503, shown in the page).
+    #[arg(long, value_name = "N", default_value_t = uwnr_serve::DEFAULT_QUEUE)]
+    pub queue: usize,
 }
 
 /// How clean images are paired with references when there are several.

@@ -129,6 +129,21 @@ pub fn save_rgb(path: &Path, img: &Image) -> Result<()> {
     write_atomic_bytes(path, &encoded)
 }
 
+/// Encodes a 3-channel image as an 8-bit PNG in memory: the bytes [`save_rgb`] writes to a
+/// `.png` file (a server can answer with exactly what `uwnr render` would have written).
+pub fn encode_rgb_png(img: &Image) -> Result<Vec<u8>> {
+    let path = Path::new(MEMORY_SOURCE);
+    let (w, h) = checked_size(path, img, 3)?;
+    encode(
+        path,
+        ImageFormat::Png,
+        &to_rgb8(img),
+        w,
+        h,
+        ExtendedColorType::Rgb8,
+    )
+}
+
 /// Saves a 3-channel image as a 16-bit RGB PNG (`(v * 65535 + 0.5).clamp(0, 65535)`). The
 /// extension must be `.png`.
 pub fn save_rgb16(path: &Path, img: &Image) -> Result<()> {

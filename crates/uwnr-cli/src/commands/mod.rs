@@ -11,6 +11,7 @@ mod info;
 mod lightfield;
 mod method;
 mod render;
+mod serve;
 mod train;
 mod training;
 
@@ -41,6 +42,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
         Command::Experiment(a) => experiment::run(&a),
         Command::Enhance(a) => enhance::run(&a),
         Command::Gan(a) => gan::run(&a),
+        Command::Serve(a) => serve::run(&a),
     }
 }
 

@@ -11,3 +11,4 @@ mod gan;
 mod golden;
 mod haze;
 mod labels;
+mod serve;

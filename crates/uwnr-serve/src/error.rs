@@ -1,0 +1,80 @@
+//! Errors of the server: each carries the HTTP status it is answered with and a message the
+//! page shows as it is.
+
+use std::path::PathBuf;
+
+/// What went wrong, with the facts in fields.
+#[derive(Debug, thiserror::Error)]
+pub enum ServeError {
+    /// A path that could leave its root: `..`, absolute, empty, or a symlink whose target lies
+    /// outside.
+    #[error("{what} path {path:?} is not inside the {what} folder")]
+    OutsideRoot { what: &'static str, path: String },
+    /// An index past the end of a list.
+    #[error("no {what} number {index} (there are {count})")]
+    UnknownIndex {
+        what: &'static str,
+        index: usize,
+        count: usize,
+    },
+    /// A relative path that names no listed image.
+    #[error("no {what} image at {path:?}")]
+    NotFound { what: &'static str, path: String },
+    /// A folder given at start that cannot be used.
+    #[error("{what} folder {path:?}: {reason}")]
+    Root {
+        what: &'static str,
+        path: PathBuf,
+        reason: String,
+    },
+    /// A request body larger than allowed.
+    #[error(
+        "the upload is {got} bytes, more than the {max} bytes this server accepts (--max-upload-mb)"
+    )]
+    TooLarge { got: u64, max: u64 },
+    /// An image that cannot be decoded or exceeds the limits.
+    #[error("{what}: {reason}")]
+    BadImage { what: String, reason: String },
+    /// A request the server cannot read (bad JSON, bad option, unknown route).
+    #[error("{0}")]
+    BadRequest(String),
+    /// The render queue is full.
+    #[error("the render queue is full ({capacity} renders waiting); try again in a moment")]
+    Busy { capacity: usize },
+    /// An unknown route or job.
+    #[error("{0}")]
+    Missing(String),
+    /// A render that failed.
+    #[error(transparent)]
+    Render(#[from] uwnr_render::RenderError),
+    /// Reading or writing a file.
+    #[error("{context}: {source}")]
+    Io {
+        context: String,
+        #[source]
+        source: std::io::Error,
+    },
+}
+
+impl ServeError {
+    /// The HTTP status this error is answered with.
+    #[must_use]
+    pub fn status(&self) -> u16 {
+        match self {
+            Self::OutsideRoot { .. } => 403,
+            Self::UnknownIndex { .. } | Self::NotFound { .. } | Self::Missing(_) => 404,
+            Self::TooLarge { .. } => 413,
+            Self::BadImage { .. } | Self::BadRequest(_) => 400,
+            Self::Busy { .. } => 503,
+            Self::Root { .. } | Self::Render(_) | Self::Io { .. } => 500,
+        }
+    }
+
+    pub(crate) fn io(context: impl Into<String>) -> impl FnOnce(std::io::Error) -> Self {
+        let context = context.into();
+        move |source| Self::Io { context, source }
+    }
+}
+
+/// Results of this crate.
+pub type Result<T> = std::result::Result<T, ServeError>;
