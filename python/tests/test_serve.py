@@ -64,9 +64,12 @@ def folders(tmp_path, samples):
 @pytest.fixture
 def server(cli, folders):
     clean, refs = folders
+    # Relative folders, as a user types them: the page's commands then name them so (and the
+    # screenshot shows no temporary paths); the commands run in the same folder.
     proc = subprocess.Popen(
-        [str(cli), "serve", "--clean", str(clean), "--references", str(refs), "--port", "0",
+        [str(cli), "serve", "--clean", clean.name, "--references", refs.name, "--port", "0",
          "--preview-size", "256"],
+        cwd=clean.parent,
         stdout=subprocess.PIPE,
         stderr=subprocess.DEVNULL,
         text=True,

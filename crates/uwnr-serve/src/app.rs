@@ -183,7 +183,7 @@ impl Engine {
         match source {
             CleanSource::Index(i) => {
                 let path = self.cleans.path(*i)?.to_path_buf();
-                let shown = self.cleans.root().join(self.cleans.rel(*i)?);
+                let shown = self.cleans.dir().join(self.cleans.rel(*i)?);
                 Ok((path, shown.display().to_string()))
             }
             CleanSource::Upload(id) => {
@@ -246,7 +246,12 @@ impl Engine {
                         "this photo has no map in a depth/ folder beside it (X/rgb/NAME with X/depth/)".into(),
                     )
                 })?;
-                Ok(Some((map.clone(), map.display().to_string())))
+                // Named below the folder as given, as the other paths of the commands are.
+                let shown = self
+                    .cleans
+                    .dir()
+                    .join(map.strip_prefix(self.cleans.root()).unwrap_or(&map));
+                Ok(Some((map.clone(), shown.display().to_string())))
             }
             DepthChoice::Upload(id) => {
                 let u = self.upload(id)?;
@@ -382,7 +387,7 @@ impl Engine {
                 .ok_or_else(|| ServeError::BadRequest("select a reference".into()))?;
             let rel = self.refs.rel(i)?;
             render.push("--reference".into());
-            render.push(self.refs.root().join(rel).display().to_string());
+            render.push(self.refs.dir().join(rel).display().to_string());
             out_name.push_str(&format!("-{}", stem(rel)));
         }
         render.extend(o.flags());
@@ -408,9 +413,9 @@ impl Engine {
             "uwnr".to_string(),
             "dataset".to_string(),
             "--clean".into(),
-            self.cleans.root().display().to_string(),
+            self.cleans.dir().display().to_string(),
             "--references".into(),
-            self.refs.root().display().to_string(),
+            self.refs.dir().display().to_string(),
             "-k".into(),
             draw.k.max(1).to_string(),
             "--seed".into(),
@@ -733,8 +738,8 @@ impl App {
             "version": env!("CARGO_PKG_VERSION"),
             "cleans": cleans,
             "references": e.refs.len(),
-            "clean_dir": e.cleans.root().display().to_string(),
-            "references_dir": e.refs.root().display().to_string(),
+            "clean_dir": e.cleans.dir().display().to_string(),
+            "references_dir": e.refs.dir().display().to_string(),
             "methods": PAGE_METHODS.map(|m| m.name()),
             "preview_size": e.config.preview_size,
             "max_upload_bytes": e.config.max_upload_bytes,

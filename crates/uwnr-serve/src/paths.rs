@@ -81,13 +81,14 @@ impl Library {
         self.files.is_empty()
     }
 
-    /// The folder as given on the command line.
+    /// The folder as given on the command line (what the page's commands name, so that they
+    /// run where `uwnr serve` was started).
     #[must_use]
     pub fn dir(&self) -> &Path {
         &self.given
     }
 
-    /// The folder with symlinks resolved (absolute: what commands name).
+    /// The folder with symlinks resolved (absolute: what path checks compare against).
     #[must_use]
     pub fn root(&self) -> &Path {
         &self.root
