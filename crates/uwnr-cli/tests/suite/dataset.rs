@@ -1,12 +1,11 @@
 //! `uwnr dataset`: determinism with the network across job and thread counts, a run killed
 //! with SIGKILL (several times) resuming to the same folder, shards and merge, verify.
 
-use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use crate::common::{s, stderr, uwnr, weights};
+use crate::common::{s, stderr, tree, uwnr, weights};
 
 /// Writes `n_clean` clean images and `n_ref` references (small, textured).
 fn inputs(root: &Path, n_clean: usize, n_ref: usize) -> (PathBuf, PathBuf) {
@@ -34,23 +33,6 @@ fn inputs(root: &Path, n_clean: usize, n_ref: usize) -> (PathBuf, PathBuf) {
             .unwrap();
     }
     (clean, refs)
-}
-
-fn tree(dir: &Path) -> BTreeMap<String, Vec<u8>> {
-    fn walk(base: &Path, dir: &Path, out: &mut BTreeMap<String, Vec<u8>>) {
-        for e in std::fs::read_dir(dir).unwrap() {
-            let p = e.unwrap().path();
-            if p.is_dir() {
-                walk(base, &p, out);
-            } else {
-                let rel = p.strip_prefix(base).unwrap().to_string_lossy().into_owned();
-                out.insert(rel, std::fs::read(&p).unwrap());
-            }
-        }
-    }
-    let mut out = BTreeMap::new();
-    walk(dir, dir, &mut out);
-    out
 }
 
 fn assert_same_tree(a: &Path, b: &Path) {

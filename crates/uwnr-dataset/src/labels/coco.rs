@@ -39,7 +39,8 @@ struct ImageEntry {
     file_name: String,
     width: usize,
     height: usize,
-    entry: Map<String, Value>,
+    /// The entry's fields that stay true for its renders (`license`, `date_captured`).
+    keep: Map<String, Value>,
 }
 
 fn err(path: &Path, at: &str, what: impl std::fmt::Display) -> String {
@@ -51,25 +52,30 @@ impl CocoFile {
     pub fn parse(path: &Path, bytes: &[u8]) -> Result<Self, String> {
         let root: Value = serde_json::from_slice(bytes)
             .map_err(|e| format!("{}: not a JSON file: {e}", path.display()))?;
-        let Some(root) = root.as_object() else {
+        let Value::Object(mut root) = root else {
             return Err(format!(
                 "{}: not a COCO file: the top level is not an object",
                 path.display()
             ));
         };
-        let list = |key: &str| -> Result<&Vec<Value>, String> {
-            root.get(key).and_then(Value::as_array).ok_or_else(|| {
-                format!(
+        for key in ["images", "annotations", "categories"] {
+            if !root.get(key).is_some_and(Value::is_array) {
+                return Err(format!(
                     "{}: not a COCO instances file: no \"{key}\" list",
                     path.display()
-                )
-            })
+                ));
+            }
+        }
+        // The lists are moved out of the parsed file, not copied: COCO files run to hundreds of
+        // megabytes.
+        let mut take = |key: &str| match root.remove(key) {
+            Some(Value::Array(v)) => v,
+            _ => Vec::new(),
         };
-        let (images_v, anns_v, cats_v) =
-            (list("images")?, list("annotations")?, list("categories")?);
+        let (images_v, anns_v, cats) = (take("images"), take("annotations"), take("categories"));
 
         let mut categories = HashSet::new();
-        for (n, c) in cats_v.iter().enumerate() {
+        for (n, c) in cats.iter().enumerate() {
             let id = c
                 .get("id")
                 .and_then(Value::as_i64)
@@ -85,11 +91,11 @@ impl CocoFile {
 
         let mut images = Vec::with_capacity(images_v.len());
         let mut by_id: HashMap<i64, usize> = HashMap::new();
-        for (n, v) in images_v.iter().enumerate() {
+        for (n, v) in images_v.into_iter().enumerate() {
             let at = format!("images[{n}]");
-            let entry = v
-                .as_object()
-                .ok_or_else(|| err(path, &at, "not an object"))?;
+            let Value::Object(mut entry) = v else {
+                return Err(err(path, &at, "not an object"));
+            };
             let id = entry
                 .get("id")
                 .and_then(Value::as_i64)
@@ -97,7 +103,8 @@ impl CocoFile {
             let file_name = entry
                 .get("file_name")
                 .and_then(Value::as_str)
-                .ok_or_else(|| err(path, &at, format!("image {id} has no \"file_name\"")))?;
+                .ok_or_else(|| err(path, &at, format!("image {id} has no \"file_name\"")))?
+                .replace('\\', "/");
             let dim = |key: &str| {
                 entry
                     .get(key)
@@ -110,22 +117,26 @@ impl CocoFile {
             if by_id.insert(id, images.len()).is_some() {
                 return Err(err(path, &at, format!("image id {id} is listed twice")));
             }
+            let keep = ["license", "date_captured"]
+                .into_iter()
+                .filter_map(|k| entry.remove(k).map(|v| (k.to_string(), v)))
+                .collect();
             images.push(ImageEntry {
                 id: json!(id),
-                file_name: file_name.replace('\\', "/"),
+                file_name,
                 width,
                 height,
-                entry: entry.clone(),
+                keep,
             });
         }
 
         let mut annotations: Vec<Vec<Map<String, Value>>> = vec![Vec::new(); images.len()];
         let mut ann_ids = HashSet::new();
-        for (n, v) in anns_v.iter().enumerate() {
+        for (n, v) in anns_v.into_iter().enumerate() {
             let at = format!("annotations[{n}]");
-            let a = v
-                .as_object()
-                .ok_or_else(|| err(path, &at, "not an object"))?;
+            let Value::Object(a) = v else {
+                return Err(err(path, &at, "not an object"));
+            };
             let id = a
                 .get("id")
                 .and_then(Value::as_i64)
@@ -156,14 +167,14 @@ impl CocoFile {
                     format!("category {category} is not in \"categories\""),
                 ));
             }
-            annotations[image].push(a.clone());
+            annotations[image].push(a);
         }
-        let field = |k: &str| root.get(k).cloned().unwrap_or(Value::Null);
+        let mut field = |k: &str| root.remove(k).unwrap_or(Value::Null);
         Ok(Self {
             path: path.to_path_buf(),
             info: field("info"),
             licenses: field("licenses"),
-            categories: field("categories"),
+            categories: Value::Array(cats),
             images,
             annotations,
         })
@@ -242,16 +253,10 @@ impl CocoFile {
                 .map_err(|reason| at(format!("annotation id {id}: {reason}")))?;
             annotations.push(fitted);
         }
-        let mut keep = Map::new();
-        for k in ["license", "date_captured"] {
-            if let Some(v) = e.entry.get(k) {
-                keep.insert(k.into(), v.clone());
-            }
-        }
         Ok(FittedImage {
             source_id: e.id.clone(),
             source_file_name: e.file_name.clone(),
-            keep,
+            keep: e.keep.clone(),
             annotations,
         })
     }

@@ -97,12 +97,12 @@ pub struct PairLabels {
 /// file names when given as files.
 #[must_use]
 pub fn relative_paths(cleans: &[PathBuf], roots: &[PathBuf]) -> Vec<String> {
+    let folders: Vec<&PathBuf> = roots.iter().filter(|r| r.is_dir()).collect();
     cleans
         .iter()
         .map(|c| {
-            let rel = roots
+            let rel = folders
                 .iter()
-                .filter(|r| r.is_dir())
                 .find_map(|r| c.strip_prefix(r).ok())
                 .unwrap_or_else(|| Path::new(c.file_name().unwrap_or(c.as_os_str())));
             rel.components()
@@ -163,10 +163,6 @@ fn match_files(
     Ok(files)
 }
 
-fn fingerprint(bytes: &[u8]) -> String {
-    uwnr_render::record::fingerprint(bytes)
-}
-
 impl Labels {
     /// Reads and matches the labels of `cleans` (found under `roots`). Problems with a label
     /// file as a whole are errors; `notes` collects what the user should know (images without
@@ -218,7 +214,7 @@ impl Labels {
             out.settings_labels = Some(json!({
                 "format": "coco",
                 "file": path.to_string_lossy(),
-                "fingerprint": fingerprint(&bytes),
+                "fingerprint": uwnr_render::record::fingerprint(&bytes),
                 "info": file.info,
                 "licenses": file.licenses,
                 "categories": file.categories,
@@ -252,7 +248,7 @@ impl Labels {
             out.settings_labels = Some(json!({
                 "format": "yolo",
                 "dir": dir.to_string_lossy(),
-                "fingerprint": fingerprint(&all),
+                "fingerprint": uwnr_render::record::fingerprint(&all),
             }));
             out.boxes = Some(Boxes::Yolo {
                 dir: dir.clone(),
