@@ -44,8 +44,8 @@ pub(crate) struct NativeReference {
     image: Image,
     paper: OnceLock<Result<Image, String>>,
     absolute: OnceLock<Result<Image, String>>,
-    water: OnceLock<Result<uwnr_model::Water, String>>,
-    detail: OnceLock<[f32; 3]>,
+    /// The water per (anchor, detail retention) a network has asked for.
+    water: std::sync::Mutex<Vec<((uwnr_model::AnchorKind, bool), uwnr_model::Water)>>,
 }
 
 impl NativeReference {
@@ -66,19 +66,21 @@ impl NativeReference {
         let water = match config.variant {
             uwnr_model::Variant::Paper => None,
             uwnr_model::Variant::Anchored => {
-                let water = *self
+                let key = (config.anchor, config.detail_retention);
+                let mut cache = self
                     .water
-                    .get_or_init(|| {
-                        uwnr_model::style::estimate_water(&self.image).map_err(|e| e.to_string())
-                    })
-                    .as_ref()
-                    .map_err(|e| Failure::Model(format!("water of the reference: {e}")))?;
-                let detail = config.detail_retention.then(|| {
-                    *self
-                        .detail
-                        .get_or_init(|| uwnr_model::style::detail_share(&self.image))
-                });
-                Some(uwnr_model::Water { detail, ..water })
+                    .lock()
+                    .map_err(|_| Failure::Model("the reference's cache is poisoned".into()))?;
+                let water = match cache.iter().find(|(k, _)| *k == key) {
+                    Some((_, w)) => *w,
+                    None => {
+                        let w = uwnr_model::style::estimate_water_for(&self.image, key.0, key.1)
+                            .map_err(|e| Failure::Model(format!("water of the reference: {e}")))?;
+                        cache.push((key, w));
+                        w
+                    }
+                };
+                Some(water)
             }
         };
         Ok(ReferenceStyle { light_field, water })
@@ -95,8 +97,7 @@ impl NativeReference {
             image,
             paper: OnceLock::new(),
             absolute: OnceLock::new(),
-            water: OnceLock::new(),
-            detail: OnceLock::new(),
+            water: std::sync::Mutex::new(Vec::new()),
         })
     }
 

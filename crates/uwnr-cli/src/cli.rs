@@ -46,6 +46,36 @@ pub enum Command {
     /// Start a local web page to pick a clean image and references and compare every method's
     /// render side by side, with the commands that reproduce them (127.0.0.1 only by default).
     Serve(ServeArgs),
+    /// Real waters: `water fit` fits the per-channel water of every real pair (underwater =
+    /// gain x clean + offset) into a bank with the regressor that predicts a reference's water
+    /// from its statistics (the bundled renderer's `assets/model/water-bank.json`).
+    Water(WaterArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct WaterArgs {
+    #[command(subcommand)]
+    pub action: WaterAction,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum WaterAction {
+    /// Fit the waters of paired folders (underwater/ + clean/) and the regressor; prints how
+    /// well the predicted waters reproduce each folder's pairs.
+    Fit(WaterFitArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct WaterFitArgs {
+    /// Paired folders to fit (underwater/ and clean/ with the same file names).
+    #[arg(required = true, value_name = "PAIRS")]
+    pub pairs: Vec<PathBuf>,
+    /// Paired folders that are only scored with the fitted regressor (held out).
+    #[arg(long, value_name = "PAIRS", num_args = 1..)]
+    pub check: Vec<PathBuf>,
+    /// The bank to write (JSON).
+    #[arg(long, short, value_name = "FILE")]
+    pub output: PathBuf,
 }
 
 #[derive(Debug, Args)]
@@ -557,6 +587,12 @@ pub struct DatasetMakeArgs {
     /// masks/NAME_k.png, resized by nearest neighbour, values unchanged.
     #[arg(long, value_name = "DIR")]
     pub masks: Option<PathBuf>,
+    /// Calibrate the strength of the pairs (PSNR(underwater, clean)) to your own water: a folder
+    /// of real pairs (underwater/ + clean/: their strengths and colour shifts are matched) or of
+    /// underwater photos (their waters are read off their statistics). Default: the real UIEB and
+    /// LSUI training pairs the bundled water bank was fitted on. Needs a water-anchored model.
+    #[arg(long, value_name = "DIR")]
+    pub target: Option<PathBuf>,
     /// Output format: folders only, or folders then WebDataset tar shards.
     #[arg(long, value_enum, default_value_t = DatasetFormat::Folder)]
     pub format: DatasetFormat,

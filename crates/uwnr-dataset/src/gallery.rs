@@ -205,6 +205,7 @@ mod tests {
             lightfield: None,
             labels: None,
             mask: None,
+            strength_db: None,
         }
     }
 

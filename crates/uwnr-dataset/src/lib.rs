@@ -5,6 +5,7 @@
 //! - [`run`]: the crash-safe, resumable, parallel generation ([`generate`]);
 //! - [`manifest`]: the folder's settings, manifest and failure files;
 //! - [`verify`] and [`merge`]: checking a folder, joining shards;
+//! - [`target`]: the strength of a water-anchored model's pairs, calibrated to real pairs;
 //! - [`gallery`]: `preview.png` and `index.html`.
 //!
 //! A dataset folder:
@@ -30,6 +31,7 @@ pub mod merge;
 pub mod plan;
 pub mod renderer;
 pub mod run;
+pub mod target;
 pub mod verify;
 pub mod webdataset;
 
@@ -41,5 +43,6 @@ pub use merge::{MergeReport, merge};
 pub use plan::{Shard, Size};
 pub use renderer::Renderer;
 pub use run::{Event, RunOptions, Spec, Summary, generate};
+pub use target::{StrengthSummary, TargetKind, WaterTarget};
 pub use verify::{Report, verify};
 pub use webdataset::{ExportReport, export};

@@ -80,6 +80,14 @@ pub struct Settings {
     /// The label masks carried to the pairs (their folder); absent without.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub masks: Option<serde_json::Value>,
+    /// The strength target of a water-anchored model's pairs (`crate::target`); absent for
+    /// other methods.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub target: Option<serde_json::Value>,
+    /// The strength of the finished folder, PSNR(underwater, clean) (written when a run
+    /// completes; not compared on resume).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub strength: Option<crate::target::StrengthSummary>,
 }
 
 /// One pair of the plan: its id, global index and clean image.
@@ -152,7 +160,11 @@ impl Settings {
 
     /// The first field in which `other` differs, with both values shown briefly.
     pub fn first_difference(&self, other: &Self) -> Result<Option<(String, String, String)>> {
-        first_difference(self, other)
+        // The finished folder's strength is a result, not a setting.
+        let (mut a, mut b) = (self.clone(), other.clone());
+        a.strength = None;
+        b.strength = None;
+        first_difference(&a, &b)
     }
 }
 
@@ -224,6 +236,10 @@ pub struct Record {
     /// The pair's label mask, `masks/NAME_k.png`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mask: Option<String>,
+    /// PSNR(underwater, clean) of the stored pair, dB (absent in folders made before it was
+    /// recorded, and for identical sides).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub strength_db: Option<f32>,
 }
 
 impl Record {
@@ -521,6 +537,8 @@ mod tests {
             lightfield: None,
             labels: None,
             mask: None,
+            strength_db: None,
+            strength_db: None,
         }
     }
 

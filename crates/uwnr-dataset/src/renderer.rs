@@ -48,6 +48,7 @@ mod tests {
             depth: uwnr_depth::DepthSource::Builtin,
             depth_policy: crate::DepthPolicy::default(),
             labels: crate::LabelInputs::default(),
+            target: None,
         };
         let opts = crate::RunOptions {
             shard: None,

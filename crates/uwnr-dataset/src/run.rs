@@ -32,6 +32,7 @@ use uwnr_model::ReferenceStyle;
 
 use crate::depth::DepthPolicy;
 use crate::labels::{Fit, LABELS_DIR, LabelInputs, Labels, MASKS_DIR, PairLabels};
+use crate::target::{StrengthSummary, WaterTarget};
 
 use crate::error::{DatasetError, Result, io_err};
 use crate::manifest::{
@@ -66,6 +67,9 @@ pub struct Spec {
     pub depth_policy: DepthPolicy,
     /// Labels of the clean images, carried to every pair.
     pub labels: LabelInputs,
+    /// The strengths to calibrate a water-anchored model's pairs to ([`crate::target`]);
+    /// `None`: the bundled real pairs'. Refused for methods without a water.
+    pub target: Option<WaterTarget>,
 }
 
 /// How to run it.
@@ -118,6 +122,8 @@ pub struct Summary {
     /// Why workers could not start (each one that did not adds a line). With none left, pairs
     /// stay unmade without failing: the run is then incomplete.
     pub worker_errors: Vec<String>,
+    /// PSNR(underwater, clean) over every pair in the manifest (this run's and earlier ones').
+    pub strength: Option<StrengthSummary>,
 }
 
 impl Summary {
@@ -203,6 +209,22 @@ pub fn generate(
         )));
     }
 
+    // A model whose anchor is a water has its strength calibrated; any other method cannot be.
+    let water_anchor = renderer
+        .generator_config()
+        .is_some_and(|c| c.anchor == uwnr_model::AnchorKind::Water);
+    let calibration = match (&spec.target, water_anchor) {
+        (Some(t), true) => Some(t.clone()),
+        (None, true) => Some(WaterTarget::bundled()?),
+        (Some(_), false) => {
+            return Err(DatasetError::Invalid(format!(
+                "--target calibrates the water of a model with a water anchor (the bundled \
+                 model); --method {} with these weights has none",
+                renderer.name()
+            )));
+        }
+        (None, false) => None,
+    };
     let settings = Settings {
         format: FORMAT.into(),
         method: renderer.name().into(),
@@ -229,6 +251,8 @@ pub fn generate(
         pairs_planned: cleans.len() * spec.per_image,
         labels: settings_labels,
         masks: settings_masks,
+        target: calibration.as_ref().map(WaterTarget::record),
+        strength: None,
     };
     match Settings::read(out) {
         Ok(existing) => {
@@ -349,6 +373,7 @@ pub fn generate(
         depth: &prepared,
         beside: &beside,
         labels: &labels,
+        calibration: calibration.as_ref(),
         limits: &opts.limits,
         stop,
     };
@@ -425,9 +450,18 @@ pub fn generate(
     if !summary.interrupted {
         write_failures(&out.join(failed_name(opts.shard)), &summary.failures)?;
     }
+    let strengths: Vec<f32> = kept.iter().filter_map(|r| r.strength_db).collect();
+    summary.strength = StrengthSummary::of(&strengths);
     if !summary.interrupted {
         // Put the manifest in pair order, so the folder is the same whatever the job count.
         write_manifest(&manifest_path, &mut kept)?;
+        if opts.shard.is_none() && summary.complete {
+            // The strength of the finished folder, kept beside its settings (not compared on
+            // resume).
+            let mut finished = settings.clone();
+            finished.strength = summary.strength.clone();
+            finished.write(out)?;
+        }
         if opts.shard.is_none() {
             crate::labels::write_coco(out, settings.labels.as_ref(), &kept)?;
         }
@@ -483,6 +517,8 @@ struct Context<'a> {
     beside: &'a [Option<PathBuf>],
     /// The clean images' labels.
     labels: &'a Labels,
+    /// Per-pair strength calibration of a water-anchored model.
+    calibration: Option<&'a WaterTarget>,
     limits: &'a DecodeLimits,
     stop: &'a AtomicBool,
 }
@@ -562,7 +598,7 @@ impl Context<'_> {
                 &pair_labels,
             );
             let msg = match result {
-                Ok((params, reference_source)) => Msg::Pair(Box::new(Record {
+                Ok((params, reference_source, strength_db)) => Msg::Pair(Box::new(Record {
                     id: id.clone(),
                     index,
                     clean_source: source.to_string_lossy().into_owned(),
@@ -584,6 +620,7 @@ impl Context<'_> {
                         .then(|| format!("{LIGHTFIELD_DIR}/{id}.png")),
                     labels: pair_labels.labels.map(|(f, _)| f),
                     mask: pair_labels.mask.map(|(f, _)| f),
+                    strength_db,
                 })),
                 Err(reason) => Msg::Failed(Failure {
                     source: source.to_string_lossy().into_owned(),
@@ -681,10 +718,23 @@ impl Context<'_> {
         id: &str,
         save_lightfield: bool,
         labels: &PairLabels,
-    ) -> std::result::Result<(serde_json::Value, Option<String>), String> {
+    ) -> std::result::Result<(serde_json::Value, Option<String>, Option<f32>), String> {
         let decoded;
+        // A calibrated water: the reference's style with the pair's own water in it.
+        let mut calibrated = None;
+        if let (Some(target), Some((_, style))) = (self.calibration, reference) {
+            let mut style = ReferenceStyle::clone(style);
+            if let Some(water) = style.water.as_mut() {
+                let (affine, record) = target
+                    .water_for(water.affine, clean, seed)
+                    .map_err(|e| e.to_string())?;
+                uwnr_model::style::set_affine(water, affine);
+                calibrated = Some((style, record));
+            }
+        }
         let (input, reference_source) = match reference {
             Some((r, lf)) => {
+                let lf = calibrated.as_ref().map_or(&**lf, |(s, _)| s);
                 let path = &self.refs[*r];
                 let image = if self.renderer.wants_reference_image() {
                     decoded = load_rgb(path, self.limits)
@@ -707,7 +757,7 @@ impl Context<'_> {
         let response = self.spec.depth_policy.response(depth, seed);
         let Rendered {
             image: underwater,
-            params,
+            mut params,
         } = worker
             .render(clean, &depth.map, &response, input, seed)
             .map_err(|e| e.to_string())?;
@@ -736,7 +786,14 @@ impl Context<'_> {
                 .map_err(|e| format!("writing {}: {e}", p.display()))?;
         }
         write(UNDERWATER_DIR, &|p| save_rgb(p, &underwater))?;
-        Ok((params, reference_source))
+        if let Some((_, record)) = calibrated {
+            params["strength"] = record;
+        }
+        // The pair as stored: both sides 8-bit.
+        let strength_db = uwnr_model::water::pair_psnr(&underwater.quantised(), clean)
+            .ok()
+            .filter(|v| v.is_finite());
+        Ok((params, reference_source, strength_db))
     }
 }
 

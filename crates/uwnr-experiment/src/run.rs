@@ -474,6 +474,7 @@ pub fn run_downstream(
         depth: spec.depth.clone(),
         depth_policy: spec.depth_policy,
         labels: uwnr_dataset::LabelInputs::default(),
+        target: None,
     };
     let real_names: Vec<String> = short_names(&spec.real)
         .into_iter()

@@ -53,6 +53,32 @@ pub struct GeneratorConfig {
     /// so their configs stay byte for byte what they were.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub detail_retention: bool,
+    /// What the anchored variant's anchor starts from ([`AnchorKind`]); files without the field
+    /// are read as `reinhard`, and `reinhard` is not written, so their configs stay as they were.
+    #[serde(default, skip_serializing_if = "AnchorKind::is_reinhard")]
+    pub anchor: AnchorKind,
+}
+
+/// What the anchored variant's anchor starts from.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum AnchorKind {
+    /// A Reinhard transfer to the reference's lαβ statistics, then the reference's light field
+    /// (the models up to v4): the reference's colours and layout replace the photo's.
+    #[default]
+    Reinhard,
+    /// The reference's water predicted from its statistics ([`crate::water`]) applied to the
+    /// photo's own colours, with no light-field retention (real pairs differ by a global
+    /// per-channel gain and offset, not by a layout).
+    Water,
+}
+
+impl AnchorKind {
+    /// Whether this is the default, `reinhard`.
+    #[must_use]
+    pub fn is_reinhard(&self) -> bool {
+        *self == Self::Reinhard
+    }
 }
 
 impl Default for GeneratorConfig {
@@ -64,6 +90,7 @@ impl Default for GeneratorConfig {
             light_field: LightFieldMap::Paper,
             variant: Variant::Paper,
             detail_retention: false,
+            anchor: AnchorKind::Reinhard,
         }
     }
 }
@@ -89,6 +116,7 @@ impl GeneratorConfig {
             light_field: LightFieldMap::Absolute,
             variant: Variant::Anchored,
             detail_retention: false,
+            anchor: AnchorKind::Reinhard,
         }
     }
 
@@ -100,6 +128,13 @@ impl GeneratorConfig {
                 field: "detail_retention",
                 value: 1,
                 reason: "only the anchored variant has an anchor to retain detail in".into(),
+            });
+        }
+        if self.anchor != AnchorKind::Reinhard && self.variant != Variant::Anchored {
+            return Err(ModelError::InvalidConfig {
+                field: "anchor",
+                value: 1,
+                reason: "only the anchored variant has an anchor".into(),
             });
         }
         if self.variant == Variant::Anchored {

@@ -325,6 +325,37 @@ pub(crate) fn render_with(
     }
 }
 
+/// The anchored render of a network whose correction is zero (its output convolution is all
+/// zeros): the anchor through the output stage, without running the network. Equal to
+/// [`render_with`] on such a network up to rounding.
+pub(crate) fn render_anchor_only(
+    clean: &Image,
+    depth: &Image,
+    style: &ReferenceStyle,
+    opts: &RenderOptions,
+) -> Result<Image> {
+    let (w, h) = clean.size();
+    let water = style.water.as_ref().ok_or_else(|| {
+        ModelError::InvalidOptions(
+            "the anchored model needs the reference's water (ReferenceStyle::new)".into(),
+        )
+    })?;
+    if depth.size() != (w, h) || depth.channels() != 1 {
+        return Err(ModelError::ImageSize {
+            what: "depth map",
+            expected: (w, h),
+            got: depth.size(),
+        });
+    }
+    let lf_full = resize_bilinear(&style.light_field, w, h)?;
+    let a = anchor(clean, water, &lf_full, |im| {
+        Ok(light_field_for_with(im, w, h, LightFieldMap::Absolute)?)
+    })?;
+    drop(lf_full);
+    let raw = Image::filled(w, h, crate::variant::ANCHORED_OUT_CHANNELS, 0.0);
+    finish(raw, a, depth, water, &opts.depth)
+}
+
 /// The network's raw output for the stacked `sources` (whole image or tiled), unclamped.
 fn run(
     generator: &dyn Forward,

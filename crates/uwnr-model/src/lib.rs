@@ -14,11 +14,12 @@ pub mod infer;
 pub mod network;
 pub mod style;
 mod variant;
+pub mod water;
 pub mod weights;
 
 pub use bundled::{BUNDLED_MODEL_NAME, bundled_weights};
 pub use burn::tensor::Device;
-pub use config::{GeneratorConfig, LightFieldMap, gmacs, param_count};
+pub use config::{AnchorKind, GeneratorConfig, LightFieldMap, gmacs, param_count};
 pub use error::{ModelError, Result};
 pub use generator::{ChannelMeans, Generator};
 pub use infer::{RenderOptions, render};

@@ -9,7 +9,7 @@ use std::sync::Arc;
 use uwnr_core::Image;
 use uwnr_engine::{EngineOptions, Precision};
 
-use crate::config::GeneratorConfig;
+use crate::config::{GeneratorConfig, Variant};
 use crate::error::{ModelError, Result};
 use crate::generator::Generator;
 use crate::infer::{BurnForward, RenderOptions, render_with};
@@ -72,6 +72,19 @@ enum Imp {
 pub struct Network {
     config: GeneratorConfig,
     imp: Imp,
+    /// The anchored network's output convolution is all zeros (weights and biases), so its
+    /// correction is zero whatever the input: rendering skips the network (the bundled v5 model
+    /// ships so; `MODEL_CARD.md` says why).
+    zero_output: bool,
+}
+
+/// Whether the output convolution (`out.0`) of a state dict is all zeros.
+fn output_is_zero(tensors: &TensorMap) -> bool {
+    ["out.0.weight", "out.0.bias"].iter().all(|k| {
+        tensors
+            .get(*k)
+            .is_some_and(|t| t.data.iter().all(|&v| v == 0.0))
+    })
 }
 
 impl Network {
@@ -94,6 +107,7 @@ impl Network {
         tensors: TensorMap,
         backend: &Backend,
     ) -> Result<(Self, Vec<String>)> {
+        let zero_output = config.variant == Variant::Anchored && output_is_zero(&tensors);
         let (imp, ignored) = match backend {
             Backend::Engine | Backend::EngineBf16 => {
                 let (weights, ignored) = engine_weights(config, tensors)?;
@@ -124,6 +138,7 @@ impl Network {
             Self {
                 config: *config,
                 imp,
+                zero_output,
             },
             ignored,
         ))
@@ -152,12 +167,19 @@ impl Network {
                     generator: Box::new(generator.clone()),
                     device: device.clone(),
                 },
+                zero_output: false,
             }),
             Backend::Engine | Backend::EngineBf16 => {
                 let tensors = generator_to_tensors(generator, config)?;
                 Ok(Self::from_tensors(config, tensors, backend)?.0)
             }
         }
+    }
+
+    /// Whether the network's correction is zero whatever its input, so renders skip it.
+    #[must_use]
+    pub fn skips_network(&self) -> bool {
+        self.zero_output
     }
 
     /// The generator's config.
@@ -196,6 +218,9 @@ impl Network {
         opts: &RenderOptions,
     ) -> Result<Image> {
         let variant = self.config.variant;
+        if self.zero_output {
+            return crate::infer::render_anchor_only(clean, depth, style, opts);
+        }
         match &self.imp {
             Imp::Engine(engine) => render_with(engine.as_ref(), variant, clean, depth, style, opts),
             Imp::Burn { generator, device } => render_with(

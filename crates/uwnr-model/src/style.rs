@@ -95,8 +95,9 @@ use uwnr_core::Image;
 use uwnr_core::lightfield::light_field_with;
 use uwnr_core::resize::{fit_within, resize_bilinear};
 
-use crate::config::GeneratorConfig;
+use crate::config::{AnchorKind, GeneratorConfig};
 use crate::error::{ModelError, Result};
+use crate::water::{Affine, bundled_bank};
 
 pub use crate::variant::{ANCHORED_IN_CHANNELS, ANCHORED_OUT_CHANNELS, Variant};
 
@@ -164,6 +165,11 @@ pub struct Water {
     /// retains it (`detail_retention` in its config); `None` leaves the anchor's detail alone.
     #[serde(default)]
     pub detail: Option<[f32; 3]>,
+    /// The reference's water as a per-channel gain and offset ([`crate::water`]) for a model
+    /// whose anchor is the water (`"anchor": "water"`): the anchor is then this water on the
+    /// clean image's own colours, not a transfer of `stats`; `None` for the Reinhard anchor.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub affine: Option<Affine>,
 }
 
 impl Water {
@@ -314,7 +320,53 @@ pub fn estimate_water_with(reference: &Image, detail_retention: bool) -> Result<
         veil: veil.map(|v| v as f32),
         beta,
         detail: detail_retention.then(|| detail_share(reference)),
+        affine: None,
     })
+}
+
+/// The water of `reference` for an anchor of kind `anchor`: [`estimate_water_with`] for the
+/// Reinhard anchor; for the water anchor, the water the bundled bank predicts from the
+/// reference's statistics ([`water_for_affine`]).
+pub fn estimate_water_for(
+    reference: &Image,
+    anchor: AnchorKind,
+    detail_retention: bool,
+) -> Result<Water> {
+    match anchor {
+        AnchorKind::Reinhard => estimate_water_with(reference, detail_retention),
+        AnchorKind::Water => {
+            let affine = bundled_bank()?.predict(reference)?;
+            water_for_affine(reference, affine, detail_retention)
+        }
+    }
+}
+
+/// The water of `reference` whose anchor is the per-channel water `affine` (predicted from the
+/// reference, or drawn from a calibration target's bank): the depth stage follows the same
+/// water, `t_c = a_c` at the reference's distance (clamped to [`MIN_TRANSMISSION`], 1) and
+/// `B_c = b_c / (1 - a_c)` ([`Affine::veil`], the quadtree veil where a channel is not
+/// attenuated), so that farther than the reference a scene moves on along the line the water
+/// drew it on.
+pub fn water_for_affine(
+    reference: &Image,
+    affine: Affine,
+    detail_retention: bool,
+) -> Result<Water> {
+    let mut water = estimate_water_with(reference, false)?;
+    water.detail = detail_retention.then(|| detail_share_with(reference, DETAIL_NOISE_FLOOR));
+    set_affine(&mut water, affine);
+    Ok(water)
+}
+
+/// Puts `affine` into `water`, with the veil and attenuation it implies ([`water_for_affine`]).
+pub fn set_affine(water: &mut Water, affine: Affine) {
+    let affine = affine.clamped();
+    water.veil = affine.veil(water.veil);
+    water.beta = affine.gain.map(|a| {
+        let t = f64::from(a).clamp(MIN_TRANSMISSION, 1.0);
+        (-t.ln() / f64::from(REFERENCE_DEPTH)) as f32
+    });
+    water.affine = Some(affine);
 }
 
 /// Per channel, the mean standard deviation over the [`DETAIL_WINDOW`]-pixel windows that fit
@@ -325,14 +377,28 @@ pub fn estimate_water_with(reference: &Image, detail_retention: bool) -> Result<
 /// channel alone.
 #[must_use]
 pub fn detail_share(img: &Image) -> [f32; 3] {
+    detail_share_with(img, 0.0)
+}
+
+/// [`detail_share`] with each window's variance reduced by `noise_floor²` (at least 0): windows
+/// whose variation is at the level of sensor or quantisation noise count as flat, so that
+/// `±1` code value of noise on a dark, flat photo cannot swing its share (and with it the
+/// detail gain of every edge in it). The water anchor measures with [`DETAIL_NOISE_FLOOR`].
+#[must_use]
+pub fn detail_share_with(img: &Image, noise_floor: f64) -> [f32; 3] {
     match fit_within(img, DETAIL_SIDE) {
-        Ok(small) => share_as_is(&small),
+        Ok(small) => share_as_is(&small, noise_floor),
         Err(_) => [f32::NAN; 3],
     }
 }
 
-/// [`detail_share`] of `img` at its own size.
-fn share_as_is(img: &Image) -> [f32; 3] {
+/// The noise floor of the water anchor's detail retention ([`detail_share_with`]), RGB in
+/// [0, 1]: two 8-bit code values. Without it, `±1` of noise moved a render of a dark dusk photo
+/// by up to 21 code values at the edges of its bright parts; with it, by at most one.
+pub const DETAIL_NOISE_FLOOR: f64 = 2.0 / 255.0;
+
+/// [`detail_share_with`] of `img` at its own size.
+fn share_as_is(img: &Image, noise_floor: f64) -> [f32; 3] {
     let (w, h) = img.size();
     let k = DETAIL_WINDOW;
     std::array::from_fn(|c| {
@@ -365,11 +431,12 @@ fn share_as_is(img: &Image) -> [f32; 3] {
                 + s[y * stride + x]
         };
         let kk = (k * k) as f64;
+        let floor2 = noise_floor * noise_floor;
         let mut local = 0.0f64;
         for y in 0..=h - k {
             for x in 0..=w - k {
                 let m = box_sum(&s1, x, y) / kk;
-                local += (box_sum(&s2, x, y) / kk - m * m).max(0.0).sqrt();
+                local += (box_sum(&s2, x, y) / kk - m * m - floor2).max(0.0).sqrt();
             }
         }
         let windows = ((w - k + 1) * (h - k + 1)) as f64;
@@ -386,9 +453,15 @@ fn share_as_is(img: &Image) -> [f32; 3] {
 /// left alone. `anchor` is taken and changed in place; a large photo holds one extra
 /// plane at a time.
 pub fn retain_detail(anchor: Image, reference: [f32; 3]) -> Result<Image> {
+    retain_detail_with(anchor, reference, 0.0)
+}
+
+/// [`retain_detail`] with the anchor's share measured above `noise_floor`
+/// ([`detail_share_with`]); `reference` must have been measured with the same floor.
+pub fn retain_detail_with(anchor: Image, reference: [f32; 3], noise_floor: f64) -> Result<Image> {
     let (w, h) = anchor.size();
     let small = fit_within(&anchor, DETAIL_SIDE)?;
-    let own = share_as_is(&small);
+    let own = share_as_is(&small, noise_floor);
     let (sw, sh) = small.size();
     let mut out = anchor;
     for c in 0..3 {
@@ -449,7 +522,11 @@ impl ReferenceStyle {
         let light_field = light_field_with(reference, config.light_field)?;
         let water = match config.variant {
             Variant::Paper => None,
-            Variant::Anchored => Some(estimate_water_with(reference, config.detail_retention)?),
+            Variant::Anchored => Some(estimate_water_for(
+                reference,
+                config.anchor,
+                config.detail_retention,
+            )?),
         };
         Ok(Self { light_field, water })
     }
@@ -467,6 +544,9 @@ impl ReferenceStyle {
 /// The colour transfer of `clean` to the reference's lαβ statistics (the first half of
 /// [`anchor`]).
 pub fn colour_transfer(clean: &Image, water: &Water) -> Result<Image> {
+    if let Some(affine) = &water.affine {
+        return affine.apply(clean);
+    }
     transfer_to_stats(clean, water.stats, ANCHOR_SPACE)
         .map_err(|e| ModelError::InvalidOptions(e.to_string()))
 }
@@ -523,9 +603,19 @@ pub fn anchor(
     light_field: impl Fn(&Image) -> Result<Image>,
 ) -> Result<Image> {
     let transfer = colour_transfer(clean, water)?;
-    let transfer_lf = light_field(&transfer)?;
-    let retained = retain_light_field(transfer, &transfer_lf, reference_lf)?;
+    // The water anchor takes no layout from the reference: a real pair's two sides differ by a
+    // global gain and offset per channel (`crate::water`), and the reference's light field is a
+    // picture of its own scene.
+    let retained = if water.affine.is_some() {
+        transfer
+    } else {
+        let transfer_lf = light_field(&transfer)?;
+        retain_light_field(transfer, &transfer_lf, reference_lf)?
+    };
     Ok(match water.detail {
+        Some(detail) if water.affine.is_some() => {
+            retain_detail_with(retained, detail, DETAIL_NOISE_FLOOR)?
+        }
         Some(detail) => retain_detail(retained, detail)?,
         None => retained,
     })
@@ -692,7 +782,10 @@ pub fn finish_with(
     }
     let mut fields = raw;
     for c in 0..ANCHORED_OUT_CHANNELS {
-        blur_plane(fields.plane_mut(c), w, h, SMOOTH_SIGMA);
+        // A zero plane blurs to zero (a network whose correction is zero skips it).
+        if fields.plane(c).iter().any(|&v| v != 0.0) {
+            blur_plane(fields.plane_mut(c), w, h, SMOOTH_SIGMA);
+        }
     }
     let d = depth.plane(0);
     let m = mean_depth(d);
@@ -780,6 +873,7 @@ mod tests {
             veil: [0.1, 0.5, 0.6],
             beta: [3.0, 1.0, 0.5],
             detail: None,
+            affine: None,
         }
     }
 

@@ -371,10 +371,11 @@ impl Worker<'_> {
                 let image = generator
                     .render(clean, depth, style, &options)
                     .map_err(|e| failed("rendering", e))?;
-                Ok(Rendered {
-                    image,
-                    params: json!({ "weights": net.weights, "depth": depth_record(response) }),
-                })
+                let mut params = json!({ "weights": net.weights, "depth": depth_record(response) });
+                if let Some(affine) = style.water.as_ref().and_then(|w| w.affine) {
+                    params["water"] = json!(affine);
+                }
+                Ok(Rendered { image, params })
             }
             WorkerImp::Uwgan { generator, gan } => {
                 let (image, v) =

@@ -97,6 +97,7 @@ fn prepare(c: &mut Criterion) {
             light_field: uwnr_core::lightfield::LightFieldMap::Paper,
             variant: uwnr_model::Variant::Paper,
             detail_retention: false,
+            anchor: uwnr_model::AnchorKind::Reinhard,
         };
         group.throughput(Throughput::Elements(b as u64));
         group.bench_function(format!("{b}x{s}"), |bencher| {

@@ -13,8 +13,9 @@
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use uwnr_core::Image;
+use uwnr_model::AnchorKind;
 use uwnr_model::Variant;
-use uwnr_model::style::{anchor, estimate_water_with};
+use uwnr_model::style::{anchor, estimate_water_for};
 use uwnr_run::plan::{Geometry, plan_crop};
 pub use uwnr_run::plan::{epoch_order, source_of};
 
@@ -119,15 +120,15 @@ pub struct Sample {
 /// Cuts, flips, rotates and casts the sample of `plan` from `pair`, then computes the light
 /// field of the underwater crop with `light_field` (the released procedure at the crop's size),
 /// and for the anchored variant the crop's water and the clean crop's anchor (`model`: the
-/// variant, and whether the anchor retains the target's detail).
+/// variant, whether the anchor retains the target's detail, and what the anchor starts from).
 pub fn make_sample(
     pair: &PairData,
     plan: &SamplePlan,
     crop: usize,
-    model: (Variant, bool),
+    model: (Variant, bool, AnchorKind),
     light_field: impl Fn(&Image) -> Result<Image>,
 ) -> Result<Sample> {
-    let (variant, detail_retention) = model;
+    let (variant, detail_retention, anchor_kind) = model;
     let (w, h) = (pair.width(), pair.height());
     if w < crop || h < crop || plan.x0 + crop > w || plan.y0 + crop > h {
         return Err(TrainError::BadImage {
@@ -191,7 +192,8 @@ pub fn make_sample(
                 path: pair.name.clone().into(),
                 reason: e.to_string(),
             };
-            let water = estimate_water_with(&under_img, detail_retention).map_err(bad)?;
+            let water =
+                estimate_water_for(&under_img, anchor_kind, detail_retention).map_err(bad)?;
             let clean_img = Image::from_planar(crop, crop, 3, clean)?;
             let a = anchor(&clean_img, &water, &lf, |im| {
                 light_field(im).map_err(|e| uwnr_model::ModelError::InvalidOptions(e.to_string()))

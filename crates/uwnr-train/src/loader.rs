@@ -63,6 +63,8 @@ pub struct BatchSpec {
     pub variant: Variant,
     /// The anchored variant's detail retention (the model config's `detail_retention`).
     pub detail_retention: bool,
+    /// What the anchored variant's anchor starts from (the model config's `anchor`).
+    pub anchor: uwnr_model::AnchorKind,
 }
 
 impl BatchSpec {
@@ -103,7 +105,7 @@ impl BatchSpec {
                     pair,
                     &plan,
                     self.crop,
-                    (self.variant, self.detail_retention),
+                    (self.variant, self.detail_retention, self.anchor),
                     |im| Ok(uwnr_core::lightfield::light_field_raw_with(im, map)?),
                 )
             })

@@ -12,7 +12,7 @@ use std::sync::atomic::AtomicBool;
 use burn::optim::{AdamWConfig, GradientsParams, ModuleOptimizer};
 use burn::tensor::{Device, Tensor, TensorData};
 use uwnr_core::lightfield;
-use uwnr_model::style::{estimate_water_with, finish_tensor};
+use uwnr_model::style::{estimate_water_for, finish_tensor};
 use uwnr_model::weights::SOURCE_METADATA_KEY;
 use uwnr_model::{
     Backend, Generator, Network, ReferenceStyle, RenderOptions, Variant, WeightsDtype,
@@ -142,6 +142,7 @@ pub fn train(
         light_field: cfg.model.light_field,
         variant: cfg.model.variant,
         detail_retention: cfg.model.detail_retention,
+        anchor: cfg.model.anchor,
     });
     let task = UwnrTask {
         cfg,
@@ -175,8 +176,9 @@ fn reference_style(cfg: &TrainConfig, v: &ValPair) -> Result<ReferenceStyle> {
     )?;
     let water = match cfg.model.variant {
         Variant::Paper => None,
-        Variant::Anchored => Some(estimate_water_with(
+        Variant::Anchored => Some(estimate_water_for(
             &v.underwater,
+            cfg.model.anchor,
             cfg.model.detail_retention,
         )?),
     };

@@ -102,6 +102,13 @@ fn make(a: &DatasetMakeArgs) -> Result<ExitCode> {
             yolo: a.yolo.clone(),
             masks: a.masks.clone(),
         },
+        target: a
+            .target
+            .as_deref()
+            .map(|dir| {
+                uwnr_dataset::WaterTarget::load(dir, &uwnr_core::io::DecodeLimits::default())
+            })
+            .transpose()?,
     };
     let jobs = a.jobs.unwrap_or_else(|| {
         std::thread::available_parallelism()
@@ -163,6 +170,9 @@ fn make(a: &DatasetMakeArgs) -> Result<ExitCode> {
         summary.secs,
         summary.rendered as f64 / summary.secs.max(1e-9)
     );
+    if let Some(strength) = &summary.strength {
+        eprintln!("{}", strength.line());
+    }
     if !summary.failures.is_empty() {
         eprintln!("failed items:");
         for f in &summary.failures {

@@ -53,13 +53,23 @@ pub fn run(a: &InfoArgs) -> Result<ExitCode> {
         match config.variant {
             uwnr_model::Variant::Paper => "paper (clean, depth, light field in; the image out)",
             uwnr_model::Variant::Anchored =>
-                "anchored (clean, light field, Reinhard anchor in; smooth gain and offset out; depth through the image-formation stage)",
+                "anchored (clean, light field, anchor in; smooth gain and offset out; depth through the image-formation stage)",
         }
     );
-    if config.detail_retention {
-        println!(
-            "anchor:      light-field and detail retention (the reference's coarse light and share of fine detail)"
-        );
+    if config.variant == uwnr_model::Variant::Anchored {
+        let detail = if config.detail_retention {
+            ", with the reference's share of fine detail"
+        } else {
+            ""
+        };
+        match config.anchor {
+            uwnr_model::AnchorKind::Reinhard => println!(
+                "anchor:      Reinhard transfer to the reference's statistics, its light field retained{detail}"
+            ),
+            uwnr_model::AnchorKind::Water => println!(
+                "anchor:      the reference's water (gain and offset per channel, read off its statistics) on the photo's own colours{detail}"
+            ),
+        }
     }
     let (pw, ph) = (w.div_ceil(16) * 16, h.div_ceil(16) * 16);
     println!(

@@ -14,6 +14,7 @@ mod render;
 mod serve;
 mod train;
 mod training;
+mod water;
 
 use std::path::Path;
 use std::process::ExitCode;
@@ -43,6 +44,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
         Command::Enhance(a) => enhance::run(&a),
         Command::Gan(a) => gan::run(&a),
         Command::Serve(a) => serve::run(&a),
+        Command::Water(a) => water::run(&a),
     }
 }
 

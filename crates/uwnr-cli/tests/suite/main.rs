@@ -12,3 +12,4 @@ mod golden;
 mod haze;
 mod labels;
 mod serve;
+mod strength;

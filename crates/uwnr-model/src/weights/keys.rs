@@ -263,6 +263,7 @@ pub(super) fn infer_config(tensors: &TensorMap) -> Result<GeneratorConfig> {
         light_field: LightFieldMap::Paper,
         variant: Variant::Paper,
         detail_retention: false,
+        anchor: crate::config::AnchorKind::Reinhard,
     };
     config.validate()?;
     Ok(config)
