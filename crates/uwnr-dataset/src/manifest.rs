@@ -538,7 +538,6 @@ mod tests {
             labels: None,
             mask: None,
             strength_db: None,
-            strength_db: None,
         }
     }
 

@@ -223,6 +223,13 @@ pub fn merge(out: &Path, sources: &[PathBuf], gallery: bool) -> Result<MergeRepo
     }
     report.pairs = records.len();
     write_manifest(&out.join("manifest.jsonl"), &mut records)?;
+    if records.len() == planned.len() {
+        // The finished folder's strength, as an unsharded run records it.
+        let strengths: Vec<f32> = records.iter().filter_map(|r| r.strength_db).collect();
+        let mut finished = settings.clone();
+        finished.strength = crate::target::StrengthSummary::of(&strengths);
+        finished.write(out)?;
+    }
     failures.sort_by(|a, b| a.source.cmp(&b.source));
     failures.dedup();
     write_failures(&out.join("failed.jsonl"), &failures)?;

@@ -7,7 +7,6 @@
 use std::path::{Path, PathBuf};
 
 use crate::common::{root, sample};
-use uwnr_baselines::{BackgroundPick, quadtree_background};
 use uwnr_core::Image;
 use uwnr_core::io::{DecodeLimits, load_rgb};
 use uwnr_core::resize::resize_bilinear;
@@ -61,6 +60,18 @@ fn distance_to(img: &Image, veil: [f64; 3], keep: impl Fn(usize) -> bool) -> f64
     sum / count.max(1) as f64
 }
 
+/// The veiling light the model's water stage moves far scenes towards: the reference's water's
+/// (for the water anchor `b / (1 - a)` of its gain and offset; for the Reinhard anchor the
+/// quadtree search's).
+fn model_veil(style: &uwnr_model::ReferenceStyle) -> [f64; 3] {
+    style
+        .water
+        .as_ref()
+        .expect("the anchored model has a water")
+        .veil
+        .map(f64::from)
+}
+
 fn mean_change(a: &Image, b: &Image) -> f64 {
     a.data()
         .iter()
@@ -74,7 +85,7 @@ fn mean_change(a: &Image, b: &Image) -> f64 {
 /// Renders `clean` at every constant depth of [`DEPTHS`] and checks the response.
 fn check_constant_depths(net: &Network, clean: &Image, reference: &Image, what: &str) {
     let style = net.style(reference).unwrap();
-    let veil = quadtree_background(reference, 0.01, BackgroundPick::Mean).unwrap();
+    let veil = model_veil(&style);
     let (w, h) = clean.size();
     // Constant maps are absolute depths (a scene that far away), not relative ones.
     let absolute = RenderOptions {
@@ -153,7 +164,7 @@ fn with_real_depth_far_parts_are_hazier_than_near_ones() {
     for reference in ["ref-green.png", "ref-blue.jpg"] {
         let reference = load_rgb(&sample(reference), &limits).unwrap();
         let style = net.style(&reference).unwrap();
-        let veil = quadtree_background(&reference, 0.01, BackgroundPick::Mean).unwrap();
+        let veil = model_veil(&style);
         for (rgb, depth) in cases {
             let clean = small(&dir.join(rgb), 256);
             // NYU stores millimetres: the scene's metres act, fully trusted.

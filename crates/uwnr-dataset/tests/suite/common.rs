@@ -68,6 +68,7 @@ pub fn spec(clean: &Path, refs: &Path, k: usize) -> Spec {
         depth: DepthSource::Builtin,
         depth_policy: uwnr_dataset::DepthPolicy::default(),
         labels: uwnr_dataset::LabelInputs::default(),
+        target: None,
     }
 }
 
