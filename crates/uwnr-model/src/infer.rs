@@ -31,7 +31,9 @@ use uwnr_engine::Planar;
 use crate::config::{LEVELS, SIZE_MULTIPLE};
 use crate::error::{ModelError, Result};
 use crate::generator::Generator;
-use crate::style::{DepthResponse, ReferenceStyle, Variant, anchor, finish};
+use crate::style::{
+    DepthResponse, ReferenceStyle, Variant, anchor, finish, finish_uncorrected, water_anchor,
+};
 use crate::weights::read_tensor;
 
 /// What tiled rendering needs of a generator implementation (burn's module or the engine),
@@ -313,11 +315,14 @@ pub(crate) fn render_with(
                 )
             })?;
             // Light-field retention reads the whole map once; the network then samples it.
-            let lf_full = resize_bilinear(&style.light_field, w, h)?;
-            let a = anchor(clean, water, &lf_full, |im| {
-                Ok(light_field_for_with(im, w, h, LightFieldMap::Absolute)?)
-            })?;
-            drop(lf_full);
+            let a = if water.affine.is_some() {
+                water_anchor(clean, water)?
+            } else {
+                let lf_full = resize_bilinear(&style.light_field, w, h)?;
+                anchor(clean, water, &lf_full, |im| {
+                    Ok(light_field_for_with(im, w, h, LightFieldMap::Absolute)?)
+                })?
+            };
             let sources = [Source::Image(clean), Source::Lazy(&lf), Source::Image(&a)];
             let raw = run(generator, variant, &sources, opts)?;
             finish(raw, a, depth, water, &opts.depth)
@@ -340,20 +345,15 @@ pub(crate) fn render_anchor_only(
             "the anchored model needs the reference's water (ReferenceStyle::new)".into(),
         )
     })?;
-    if depth.size() != (w, h) || depth.channels() != 1 {
-        return Err(ModelError::ImageSize {
-            what: "depth map",
-            expected: (w, h),
-            got: depth.size(),
-        });
-    }
-    let lf_full = resize_bilinear(&style.light_field, w, h)?;
-    let a = anchor(clean, water, &lf_full, |im| {
-        Ok(light_field_for_with(im, w, h, LightFieldMap::Absolute)?)
-    })?;
-    drop(lf_full);
-    let raw = Image::filled(w, h, crate::variant::ANCHORED_OUT_CHANNELS, 0.0);
-    finish(raw, a, depth, water, &opts.depth)
+    let a = if water.affine.is_some() {
+        water_anchor(clean, water)?
+    } else {
+        let lf_full = resize_bilinear(&style.light_field, w, h)?;
+        anchor(clean, water, &lf_full, |im| {
+            Ok(light_field_for_with(im, w, h, LightFieldMap::Absolute)?)
+        })?
+    };
+    finish_uncorrected(a, depth, water, &opts.depth)
 }
 
 /// The network's raw output for the stacked `sources` (whole image or tiled), unclamped.

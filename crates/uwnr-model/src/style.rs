@@ -607,22 +607,27 @@ pub fn anchor(
     reference_lf: &Image,
     light_field: impl Fn(&Image) -> Result<Image>,
 ) -> Result<Image> {
+    if water.affine.is_some() {
+        return water_anchor(clean, water);
+    }
     let transfer = colour_transfer(clean, water)?;
-    // The water anchor takes no layout from the reference: a real pair's two sides differ by a
-    // global gain and offset per channel (`crate::water`), and the reference's light field is a
-    // picture of its own scene.
-    let retained = if water.affine.is_some() {
-        transfer
-    } else {
-        let transfer_lf = light_field(&transfer)?;
-        retain_light_field(transfer, &transfer_lf, reference_lf)?
-    };
+    let transfer_lf = light_field(&transfer)?;
+    let retained = retain_light_field(transfer, &transfer_lf, reference_lf)?;
     Ok(match water.detail {
-        Some(detail) if water.affine.is_some() => {
-            retain_detail_with(retained, detail, DETAIL_NOISE_FLOOR)?
-        }
         Some(detail) => retain_detail(retained, detail)?,
         None => retained,
+    })
+}
+
+/// The anchor of a water with a gain and offset ([`Water::affine`]): that water on the clean
+/// image's own colours, then its detail retained above [`DETAIL_NOISE_FLOOR`]. It reads no
+/// light field: a real pair's two sides differ by a global gain and offset per channel
+/// (`crate::water`), and the reference's light field is a picture of its own scene.
+pub fn water_anchor(clean: &Image, water: &Water) -> Result<Image> {
+    let transfer = colour_transfer(clean, water)?;
+    Ok(match water.detail {
+        Some(detail) => retain_detail_with(transfer, detail, DETAIL_NOISE_FLOOR)?,
+        None => transfer,
     })
 }
 
@@ -778,7 +783,7 @@ pub fn finish_with(
     gain: f32,
 ) -> Result<Image> {
     let (w, h) = anchor.size();
-    if raw.size() != (w, h) || depth.size() != (w, h) {
+    if raw.size() != (w, h) {
         return Err(ModelError::ImageSize {
             what: "anchored network output",
             expected: (w, h),
@@ -787,20 +792,63 @@ pub fn finish_with(
     }
     let mut fields = raw;
     for c in 0..ANCHORED_OUT_CHANNELS {
-        // A zero plane blurs to zero (a network whose correction is zero skips it).
-        if fields.plane(c).iter().any(|&v| v != 0.0) {
-            blur_plane(fields.plane_mut(c), w, h, SMOOTH_SIGMA);
-        }
+        blur_plane(fields.plane_mut(c), w, h, SMOOTH_SIGMA);
+    }
+    depth_stage(Some(&fields), anchor, depth, water, reference_depth, local, gain)
+}
+
+/// [`finish`] with the correction at zero: the anchor through the depth stage alone (a network
+/// whose output convolution is all zeros corrects nothing, so it is not run).
+pub fn finish_uncorrected(
+    anchor: Image,
+    depth: &Image,
+    water: &Water,
+    response: &DepthResponse,
+) -> Result<Image> {
+    response.validate()?;
+    let gain = response.scale.unit_gain();
+    depth_stage(
+        None,
+        anchor,
+        depth,
+        water,
+        response.scale.reference_depth(),
+        response.trust * gain,
+        gain,
+    )
+}
+
+/// The output stage after the correction's blur: `N = A (1 + g') + o'` (`fields`: g' then o';
+/// `None`: zero) through the depth factor towards the veil.
+fn depth_stage(
+    fields: Option<&Image>,
+    anchor: Image,
+    depth: &Image,
+    water: &Water,
+    reference_depth: Option<f32>,
+    local: f32,
+    gain: f32,
+) -> Result<Image> {
+    let (w, h) = anchor.size();
+    if depth.size() != (w, h) {
+        return Err(ModelError::ImageSize {
+            what: "depth map",
+            expected: (w, h),
+            got: depth.size(),
+        });
     }
     let d = depth.plane(0);
     let m = mean_depth(d);
     let reference_depth = reference_depth.unwrap_or(m);
     let mut out = anchor;
     for c in 0..3 {
-        let (g, o) = (fields.plane(c), fields.plane(c + 3));
         let (veil, beta) = (water.veil[c], water.beta[c]);
+        let gain_offset = fields.map(|f| (f.plane(c), f.plane(c + 3)));
         for (i, v) in out.plane_mut(c).iter_mut().enumerate() {
-            let n = *v * (1.0 + g[i]) + o[i];
+            let n = match gain_offset {
+                Some((g, o)) => *v * (1.0 + g[i]) + o[i],
+                None => *v,
+            };
             *v = veil + (n - veil) * depth_factor(beta, d[i], m, reference_depth, local, gain);
         }
     }
