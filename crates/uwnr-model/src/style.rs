@@ -794,7 +794,15 @@ pub fn finish_with(
     for c in 0..ANCHORED_OUT_CHANNELS {
         blur_plane(fields.plane_mut(c), w, h, SMOOTH_SIGMA);
     }
-    depth_stage(Some(&fields), anchor, depth, water, reference_depth, local, gain)
+    depth_stage(
+        Some(&fields),
+        anchor,
+        depth,
+        water,
+        reference_depth,
+        local,
+        gain,
+    )
 }
 
 /// [`finish`] with the correction at zero: the anchor through the depth stage alone (a network
