@@ -32,7 +32,7 @@ use crate::config::{LEVELS, SIZE_MULTIPLE};
 use crate::error::{ModelError, Result};
 use crate::generator::Generator;
 use crate::style::{
-    DepthResponse, ReferenceStyle, Variant, anchor, finish, finish_uncorrected, water_anchor,
+    DepthResponse, ReferenceStyle, Variant, Water, anchor, finish, finish_uncorrected, water_anchor,
 };
 use crate::weights::read_tensor;
 
@@ -309,20 +309,7 @@ pub(crate) fn render_with(
             Ok(out)
         }
         Variant::Anchored => {
-            let water = style.water.as_ref().ok_or_else(|| {
-                ModelError::InvalidOptions(
-                    "the anchored model needs the reference's water (ReferenceStyle::new)".into(),
-                )
-            })?;
-            // Light-field retention reads the whole map once; the network then samples it.
-            let a = if water.affine.is_some() {
-                water_anchor(clean, water)?
-            } else {
-                let lf_full = resize_bilinear(&style.light_field, w, h)?;
-                anchor(clean, water, &lf_full, |im| {
-                    Ok(light_field_for_with(im, w, h, LightFieldMap::Absolute)?)
-                })?
-            };
+            let (water, a) = anchored_start(clean, style)?;
             let sources = [Source::Image(clean), Source::Lazy(&lf), Source::Image(&a)];
             let raw = run(generator, variant, &sources, opts)?;
             finish(raw, a, depth, water, &opts.depth)
@@ -339,6 +326,13 @@ pub(crate) fn render_anchor_only(
     style: &ReferenceStyle,
     opts: &RenderOptions,
 ) -> Result<Image> {
+    let (water, a) = anchored_start(clean, style)?;
+    finish_uncorrected(a, depth, water, &opts.depth)
+}
+
+/// The reference's water and the anchor of `clean` (the water anchor's, or the Reinhard anchor
+/// with light-field retention, which reads the whole map once at the image's size).
+fn anchored_start<'s>(clean: &Image, style: &'s ReferenceStyle) -> Result<(&'s Water, Image)> {
     let (w, h) = clean.size();
     let water = style.water.as_ref().ok_or_else(|| {
         ModelError::InvalidOptions(
@@ -353,7 +347,7 @@ pub(crate) fn render_anchor_only(
             Ok(light_field_for_with(im, w, h, LightFieldMap::Absolute)?)
         })?
     };
-    finish_uncorrected(a, depth, water, &opts.depth)
+    Ok((water, a))
 }
 
 /// The network's raw output for the stacked `sources` (whole image or tiled), unclamped.

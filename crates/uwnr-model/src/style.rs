@@ -296,6 +296,16 @@ impl DepthResponse {
     }
 }
 
+impl DepthResponse {
+    /// Checked, in the normalised units of [`finish_with`]: the reference's depth (`None`: the
+    /// image's mean), the within-image strength and the gain of the image's mean's offset.
+    fn units(&self) -> Result<(Option<f32>, f32, f32)> {
+        self.validate()?;
+        let gain = self.scale.unit_gain();
+        Ok((self.scale.reference_depth(), self.trust * gain, gain))
+    }
+}
+
 /// Largest trust accepted (beyond 1 the map's differences act more than its distances say).
 pub const MAX_TRUST: f32 = 4.0;
 
@@ -757,17 +767,8 @@ pub fn finish(
     water: &Water,
     response: &DepthResponse,
 ) -> Result<Image> {
-    response.validate()?;
-    let gain = response.scale.unit_gain();
-    finish_with(
-        raw,
-        anchor,
-        depth,
-        water,
-        response.scale.reference_depth(),
-        response.trust * gain,
-        gain,
-    )
+    let (reference_depth, local, gain) = response.units()?;
+    finish_with(raw, anchor, depth, water, reference_depth, local, gain)
 }
 
 /// [`finish`] in normalised units: the reference at `reference_depth` (`None`: the image's
@@ -813,17 +814,8 @@ pub fn finish_uncorrected(
     water: &Water,
     response: &DepthResponse,
 ) -> Result<Image> {
-    response.validate()?;
-    let gain = response.scale.unit_gain();
-    depth_stage(
-        None,
-        anchor,
-        depth,
-        water,
-        response.scale.reference_depth(),
-        response.trust * gain,
-        gain,
-    )
+    let (reference_depth, local, gain) = response.units()?;
+    depth_stage(None, anchor, depth, water, reference_depth, local, gain)
 }
 
 /// The output stage after the correction's blur: `N = A (1 + g') + o'` (`fields`: g' then o';
