@@ -465,14 +465,16 @@ pub fn bundled_bank() -> Result<&'static WaterBank> {
 
 /// The entry of one real pair.
 pub fn bank_entry(name: String, clean: &Image, under: &Image) -> Result<BankEntry> {
-    let water = fit_pair(clean, under)?;
+    // Both sides brought to the fitting size once; the fit and the statistics then find them
+    // at that size (a same-size resize is an exact copy), so the values are those of the
+    // originals.
     let u = fit_within(under, WATER_SIDE)?;
     let (w, h) = u.size();
     let c = resize_bilinear(clean, w, h)?;
     Ok(BankEntry {
         name,
-        features: water_features(under)?,
-        water,
+        features: water_features(&u)?,
+        water: fit_pair(&c, &u)?,
         strength: pair_psnr(&u, &c)?,
     })
 }
