@@ -21,7 +21,7 @@ out="$(mktemp)"
 trap 'rm -f "$out"' EXIT
 
 echo "machine: $(nproc) cores, load: $(uptime | sed 's/.*load average: //')" >&2
-cargo build --release --quiet -p uwnr-model --example bench_inference
+cargo build --release --quiet -p uwnr-train --example bench_inference
 bin=target/release/examples/bench_inference
 flex_flag=()
 [[ "${NO_FLEX:-0}" == 1 ]] && flex_flag=(--no-flex)

@@ -156,8 +156,8 @@ class Renderer:
         and ``depth_scale_m``, a control); ``METHODS`` lists them.
     :param seed: the run seed; a render's random parameters (baselines, and the GAN's water code)
         come from it and the item's index, as in ``uwnr render``.
-    :param device: what runs the network: ``"engine"`` (default, uwnr's CPU inference engine, the
-        command line's default too), ``"flex"`` (burn), ``"tch"`` in builds with libtorch.
+    :param device: what runs the network: ``"engine"`` (the default and the only choice: uwnr's
+        CPU inference engine; the package renders without a training framework).
     :param max_whole_pixels, tile, overlap: tiling of large images, as on the command line.
     :param method_options: a baseline's parameters by name, as in its JSON config, e.g.
         ``water_type="3C"`` for Jerlov, ``space="lab"`` and ``match_std=False`` for Reinhard,

@@ -134,8 +134,7 @@ fn main() {
     let bytes = uwnr_model::bundled_weights().expect("a build with the bundled model");
     let net = Network::load_from_bytes(bytes, &Backend::Engine).unwrap().0;
     let styles: Vec<_> = refs.iter().map(|r| net.style(r).unwrap()).collect();
-    let gan_device = uwnr_model::device_from_name("flex").unwrap();
-    let (gan, _, _) = uwnr_gan::generator_or_bundled(None, &gan_device).unwrap();
+    let (gan, _, _) = uwnr_gan::generator_or_bundled(None).unwrap();
     let render_uwnr = |clean: &Image, depth: &Depth, r: usize, response: DepthResponse| {
         net.render(
             clean,
@@ -218,9 +217,7 @@ fn main() {
         ),
         (
             "`uwgan`",
-            Box::new(|c, d, _, r| {
-                uwnr_gan::render(&gan, c, &d.map, r as u64, &gan_device).unwrap()
-            }),
+            Box::new(|c, d, _, r| uwnr_gan::render(&gan, c, &d.map, r as u64).unwrap()),
         ),
     ];
 

@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 use clap::{Args, Parser, Subcommand, ValueEnum};
-use uwnr_render::{ComputeDevice, MethodKind, Precision};
+use uwnr_render::{MethodKind, Precision};
 
 /// Render clean photos into realistic underwater images (UWNR) and build paired datasets.
 #[derive(Debug, Parser)]
@@ -28,6 +28,7 @@ pub enum Command {
     /// authors' key names, the model config in the metadata, and a chosen precision.
     Convert(ConvertArgs),
     /// Train the generator on paired folders (underwater/ + clean/), with exact resume.
+    #[cfg(feature = "train")]
     Train(TrainArgs),
     /// Score images with the field's metrics (PSNR, SSIM, UIQM, UCIQE, FD, KID).
     Eval(EvalArgs),
@@ -36,12 +37,15 @@ pub enum Command {
     Dataset(Box<DatasetArgs>),
     /// Experiments: `experiment downstream` trains an enhancer on each method's synthetic data
     /// and scores it on real test pairs (the paper's Table 1).
+    #[cfg(feature = "train")]
     Experiment(ExperimentArgs),
     /// The Shallow-UWnet enhancer of the downstream experiment: `enhance train` on paired
     /// folders, `enhance apply` to images, `enhance eval` on a paired test folder.
+    #[cfg(feature = "train")]
     Enhance(EnhanceArgs),
     /// The UWGAN-style GAN baseline: `gan train` learns image-formation parameters from unpaired
     /// clean images (with depth) and real underwater images; `render --method uwgan` uses it.
+    #[cfg(feature = "train")]
     Gan(GanArgs),
     /// Start a local web page to pick a clean image and references and compare every method's
     /// render side by side, with the commands that reproduce them (127.0.0.1 only by default).
@@ -49,6 +53,7 @@ pub enum Command {
     /// Real waters: `water fit` fits the per-channel water of every real pair (underwater =
     /// gain x clean + offset) into a bank with the regressor that predicts a reference's water
     /// from its statistics (the bundled renderer's `assets/model/water-bank.json`).
+    #[cfg(feature = "train")]
     Water(WaterArgs),
 }
 
@@ -127,8 +132,8 @@ pub enum Pairing {
 /// Compute device for the neural network.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum DeviceArg {
-    /// The dedicated CPU inference engine (uwnr-engine) for rendering; commands that train
-    /// run burn's flex backend.
+    /// The dedicated CPU inference engine (uwnr-engine), which runs every render; commands that
+    /// train run burn's flex backend.
     Engine,
     /// Pure-Rust CPU backend (burn flex), always available.
     Flex,
@@ -144,16 +149,6 @@ pub enum PrecisionArg {
     /// bf16 operands with f32 sums: faster on CPUs with AVX512_BF16, outputs a little off the
     /// f32 ones (engine only).
     Bf16,
-}
-
-impl From<DeviceArg> for ComputeDevice {
-    fn from(d: DeviceArg) -> Self {
-        match d {
-            DeviceArg::Engine => Self::Engine,
-            DeviceArg::Flex => Self::Flex,
-            DeviceArg::Tch => Self::Tch,
-        }
-    }
 }
 
 impl From<PrecisionArg> for Precision {

@@ -22,10 +22,9 @@ mod tests {
             uwnr_core::io::save_rgb(&refs.join(format!("r{k}.png")), &img).unwrap();
         }
         let config = GeneratorConfig::with_base_width(8);
-        let device = uwnr_model::Device::flex();
-        let generator = config.init(&device).unwrap();
-        let network =
-            uwnr_model::Network::from_generator(&generator, &config, &uwnr_model::Backend::Engine)
+        let tensors = uwnr_model::weights::keys::seeded_tensors(&config, 1);
+        let (network, _) =
+            uwnr_model::Network::from_tensors(&config, tensors, &uwnr_model::Backend::Engine)
                 .unwrap();
         let renderer = Renderer::network(network, RenderOptions::default(), "test".into(), b"");
         // A worker takes its copy of the network under the lock: a poisoned lock stops every

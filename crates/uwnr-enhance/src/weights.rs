@@ -8,9 +8,8 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 use burn::tensor::{Device, Tensor, TensorData};
-use uwnr_model::{
-    TensorMap, WeightsDtype, WeightsInfo, read_tensor, read_tensor_file, write_tensor_file,
-};
+use uwnr_model::{TensorMap, WeightsDtype, WeightsInfo, read_tensor_file, write_tensor_file};
+use uwnr_train::read_tensor;
 
 use crate::error::{EnhanceError, Result};
 use crate::model::{IMAGE_CHANNELS, KERNEL, ShallowUwnet, ShallowUwnetConfig, conv_from_weight};

@@ -1,273 +1,65 @@
-//! The differentiable underwater image-formation layer of the GAN baseline:
-//! `I = k · V(r) · S_w( J · t + B · (1 − t) )` with `t = exp(−β · d)`, on burn tensors, so the
-//! discriminator's gradient flows back into the predicted parameters.
-//!
-//! # The stages
-//!
-//! 1. **Attenuation** (WaterGAN stage 1, UWGAN's `g_atten`): per-channel transmission
-//!    `t_c = exp(−β_c · d)` with `d` in metres (`d = depth · range_m`, see
-//!    [`ImagingConfig::range_m`]) and `β_c ≥ 0` per metre; the direct signal is `J · t`.
-//! 2. **Backscatter / veiling light** (the paper's Eq. 1, `I = J t + B (1 − t)`): a veiling
-//!    light `B_c ∈ [0, 1]` per image and channel, weighted by `1 − t_c`, so it grows with
-//!    distance.
-//! 3. **Optics blur** (optional, [`ImagingConfig::blur`]): `S_w(x) = (1 − w) x + w · G(x)` with
-//!    `G` a normalised 3x3 binomial blur and `w ∈ [0, 1]` predicted.
-//! 4. **Camera** (WaterGAN stage 3): radial vignetting
-//!    `V(r) = 1 + a r² + b r⁴ + c r⁶` (r = 0 at the centre, 1 at the corners) and a global gain `k`.
-//!
-//! # What is reproduced and what is simplified
-//!
-//! Reproduced from WaterGAN (Li et al. 2017, RA-L 2018) and UWGAN (Wang et al. 2019, whose
-//! released generator `wc_generator` starts from WaterGAN's code):
-//! - the generator's structure as a chain of physical stages (attenuation, scattering, camera)
-//!   whose parameters are learnt adversarially from unpaired real underwater images, conditioned
-//!   on an in-air image, its depth and a noise code `z`;
-//! - per-channel exponential attenuation with depth, `exp(−η_c d)`, and the depth-dependent
-//!   veiling term `(1 − exp(−η d))` of UWGAN's "improved" model;
-//! - the camera stage of the WaterGAN paper: a radial vignetting polynomial in `r²`, `r⁴`, `r⁶`
-//!   (coefficients a, b, c) and a scale `k`, as summaries of the paper describe it (the paper's
-//!   own equation could not be checked from here; the form is the standard even polynomial of
-//!   the vignetting literature); the scale is also UWGAN's `g_tol`, initialised to 0.9
-//!   ([`GAIN_INIT`]);
-//! - UWGAN's initial attenuation coefficients ([`UWGAN_BETA_INIT`]).
-//!
-//! Simplified or changed (the baseline is "in the manner of", not a reproduction):
-//! - **Parameters are predicted per image by a small network** (see [`crate::model`]) instead
-//!   of being global learnt variables (UWGAN's `g_eta_r/g/b`, `g_amp`, `g_tol`): one trained
-//!   generator renders many waters, chosen by `z`.
-//! - **Backscatter is `B (1 − t)` with one veiling light per image and channel.** WaterGAN and
-//!   UWGAN instead project `z` with a dense layer to a full-resolution map, multiply it by
-//!   depth and convolve it (5x5) per channel; that dense layer has `|z| · H · W` weights, which
-//!   ties the network to one image size (48x64 in WaterGAN, 256x256 in UWGAN). UWGAN's extra
-//!   haze term, `255 A (1 − e^(−0.75 d)) e^(−η d)` with a fixed 0.75, is not reproduced:
-//!   `B (1 − t)` is the only veiling term.
-//! - **Constraints are built into the parameterisation** (bounded sigmoids, [`WaterParams::from_raw`])
-//!   instead of WaterGAN/UWGAN's penalty terms (`−min(η, 0) · 10⁴` added to the generator
-//!   loss). The vignetting coefficients are kept in `[−VIGNETTE_MAX, 0]`, so `V` falls off
-//!   monotonically from 1 at the centre and stays above `1 − 3 · VIGNETTE_MAX` at the corners;
-//!   WaterGAN's released code replaces the polynomial by a fixed 2-D Gaussian profile scaled by
-//!   a learnt amplitude, which we do not follow.
-//! - **Depth is uwnr's relative depth** ([0, 1], larger = farther, see `uwnr-depth`) scaled to
-//!   metres by one constant, where UWGAN reads NYU's metric depth directly.
-//! - **Vignetting is centred on the image (or training crop) it is applied to**; WaterGAN trains
-//!   on whole frames.
-//! - **The blur is ours** (neither paper has one): a stand-in for forward scattering and
-//!   defocus, off by default.
-//!
-//! With `J, B ∈ [0, 1]`, `t ∈ (0, 1]`, `V ∈ (0, 1]` and `k ∈ [GAIN_MIN, GAIN_MAX] ⊂ (0, 1]`, the
-//! render stays in [0, 1] with no clamp, so no gradient is cut.
+//! The GAN baseline's underwater image-formation layer on one image, without a training
+//! framework: `I = k · V(r) · S_w( J · t + B · (1 − t) )` with `t = exp(−β · d)`,
+//! `d = depth · range_m` metres, `V(r) = 1 + a r² + b r⁴ + c r⁶` and the optional 3x3 binomial
+//! blur `S_w(x) = (1 − w) x + w G(x)`. The stages, their sources and what is simplified are
+//! described with the differentiable form that training uses (`uwnr-gan-train`'s `imaging`);
+//! this one follows it operation by operation in f32, and the training wing's tests compare
+//! the two.
 
-use burn::tensor::activation::sigmoid;
-use burn::tensor::module::conv2d;
-use burn::tensor::ops::ConvOptions;
-use burn::tensor::{Device, Tensor, TensorData};
-use serde::{Deserialize, Serialize};
+use rayon::prelude::*;
+use uwnr_core::Image;
 
-use crate::error::{GanError, Result};
+use crate::config::{
+    BETA_MAX, BINOMIAL, GAIN_MAX, GAIN_MIN, ImagingConfig, RAW_PARAMS, RGB, VIGNETTE_MAX,
+};
+use crate::error::Result;
+use crate::generator::check_inputs;
 
-/// Channels of an RGB image.
-pub const RGB: usize = 3;
-/// Number of raw values the generator's head predicts per image: β (3), B (3), vignetting
-/// (a, b, c), gain k, blur weight w.
-pub const RAW_PARAMS: usize = 11;
-/// Largest attenuation coefficient, per metre. Jerlov's most turbid coastal type 9C keeps 29%
-/// of blue light per metre (UWCNN's table, see `UWNR-NOTES.md`): `−ln 0.29 = 1.24` m⁻¹; the bound
-/// leaves room above it.
-pub const BETA_MAX: f32 = 1.5;
-/// UWGAN's initial attenuation coefficients `(η_r, η_g, η_b)` per metre (`uwgan_model.py`,
-/// `g_eta_r/g/b`, normal initialisers with these means).
-pub const UWGAN_BETA_INIT: [f32; 3] = [0.35, 0.015, 0.036];
-/// Largest magnitude of each vignetting coefficient: `V ≥ 1 − 3 · 0.3 = 0.1` at the corners.
-pub const VIGNETTE_MAX: f32 = 0.3;
-/// Initial vignetting coefficient (each of a, b, c): a faint fall-off, 4% at the corners.
-pub const VIGNETTE_INIT: f32 = -0.013;
-/// Smallest camera gain.
-pub const GAIN_MIN: f32 = 0.5;
-/// Largest camera gain (1: the stages only darken, so the render stays in [0, 1]).
-pub const GAIN_MAX: f32 = 1.0;
-/// Initial camera gain: UWGAN's `g_tol`, initialised to 0.9.
-pub const GAIN_INIT: f32 = 0.9;
-/// Initial veiling light per channel (mid grey: no colour preferred before training).
-pub const BACKLIGHT_INIT: f32 = 0.5;
-/// Initial blur weight (a light blur, 5%).
-pub const BLUR_INIT: f32 = 0.05;
-/// Depth range in metres that uwnr's relative depth 1 stands for: NYU Depth v2's Kinect range,
-/// about 10 m, the metric depth UWGAN trains on.
-pub const DEFAULT_RANGE_M: f64 = 10.0;
-/// The 1-D binomial kernel of the optics blur (its outer product, over 16, is the 3x3 kernel).
-const BINOMIAL: [f32; 3] = [1.0, 2.0, 1.0];
-
-/// The fixed settings of the imaging layer (part of the generator's config).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct ImagingConfig {
-    /// Metres that relative depth 1 stands for (`d = depth · range_m`).
-    pub range_m: f64,
-    /// Apply the optics blur stage.
-    pub blur: bool,
+/// The image-formation parameters of one render.
+#[derive(Clone, Debug, PartialEq)]
+pub struct WaterValues {
+    /// Attenuation per metre, R, G, B, in `[0, BETA_MAX]`.
+    pub beta: [f32; 3],
+    /// Veiling light, R, G, B, in `[0, 1]`.
+    pub backlight: [f32; 3],
+    /// Vignetting coefficients `(a, b, c)` of `r², r⁴, r⁶`, each in `[−VIGNETTE_MAX, 0]`.
+    pub vignette: [f32; 3],
+    /// Camera gain `k` in `[GAIN_MIN, GAIN_MAX]`.
+    pub gain: f32,
+    /// Blur weight `w` in `[0, 1]` (used only when the imaging config has the blur on).
+    pub blur: f32,
 }
 
-impl Default for ImagingConfig {
-    fn default() -> Self {
-        Self {
-            range_m: DEFAULT_RANGE_M,
-            blur: false,
-        }
-    }
+/// The logistic function, as burn computes it (`1 / (1 + exp(−x))`).
+fn sigmoid(x: f32) -> f32 {
+    1.0 / (1.0 + (-x).exp())
 }
 
-impl ImagingConfig {
-    /// Checks the settings.
-    pub fn validate(&self) -> Result<()> {
-        if !(self.range_m.is_finite() && self.range_m > 0.0) {
-            return Err(GanError::InvalidConfig {
-                field: "imaging.range_m",
-                reason: format!("{} must be positive", self.range_m),
-            });
-        }
-        Ok(())
-    }
-}
-
-/// The image-formation parameters of a batch, one set per image, already in their physical
-/// ranges.
-#[derive(Clone, Debug)]
-pub struct WaterParams {
-    /// Attenuation per metre, R, G, B, in `[0, BETA_MAX]`: `[b, 3]`.
-    pub beta: Tensor<2>,
-    /// Veiling light, R, G, B, in `[0, 1]`: `[b, 3]`.
-    pub backlight: Tensor<2>,
-    /// Vignetting coefficients `(a, b, c)` of `r², r⁴, r⁶`, each in `[−VIGNETTE_MAX, 0]`: `[b, 3]`.
-    pub vignette: Tensor<2>,
-    /// Camera gain `k` in `[GAIN_MIN, GAIN_MAX]`: `[b, 1]`.
-    pub gain: Tensor<2>,
-    /// Blur weight `w` in `[0, 1]`: `[b, 1]`.
-    pub blur: Tensor<2>,
-}
-
-impl WaterParams {
+impl WaterValues {
     /// Maps the head's raw outputs to the parameters' ranges with sigmoids:
     /// `β = BETA_MAX σ(x₀..₃)`, `B = σ(x₃..₆)`, `(a, b, c) = −VIGNETTE_MAX σ(x₆..₉)`,
     /// `k = GAIN_MIN + (GAIN_MAX − GAIN_MIN) σ(x₉)`, `w = σ(x₁₀)`.
-    ///
-    /// # Shapes
-    /// - `raw`: `[b, RAW_PARAMS]`
-    pub fn from_raw(raw: Tensor<2>) -> Self {
-        let [b, _] = raw.dims();
-        let s = sigmoid(raw);
+    #[must_use]
+    pub fn from_raw(raw: &[f32; RAW_PARAMS]) -> Self {
+        let s = raw.map(sigmoid);
         Self {
-            beta: s.clone().slice([0..b, 0..3]) * BETA_MAX,
-            backlight: s.clone().slice([0..b, 3..6]),
-            vignette: s.clone().slice([0..b, 6..9]) * (-VIGNETTE_MAX),
-            gain: s.clone().slice([0..b, 9..10]) * (GAIN_MAX - GAIN_MIN) + GAIN_MIN,
-            blur: s.slice([0..b, 10..11]),
+            beta: [s[0], s[1], s[2]].map(|v| v * BETA_MAX),
+            backlight: [s[3], s[4], s[5]],
+            vignette: [s[6], s[7], s[8]].map(|v| v * (-VIGNETTE_MAX)),
+            gain: s[9] * (GAIN_MAX - GAIN_MIN) + GAIN_MIN,
+            blur: s[10],
         }
     }
-
-    /// Parameters given directly (for tests and hand-set renders), each `[b, n]` on `device`.
-    ///
-    /// # Shapes
-    /// - every argument is one row per image: `beta`, `backlight`, `vignette` have 3 values,
-    ///   `gain` and `blur` 1
-    pub fn from_values(
-        beta: &[[f32; 3]],
-        backlight: &[[f32; 3]],
-        vignette: &[[f32; 3]],
-        gain: &[f32],
-        blur: &[f32],
-        device: &Device,
-    ) -> Result<Self> {
-        let b = beta.len();
-        for (what, n) in [
-            ("backlight rows", backlight.len()),
-            ("vignette rows", vignette.len()),
-            ("gain rows", gain.len()),
-            ("blur rows", blur.len()),
-        ] {
-            if n != b {
-                return Err(GanError::ShapeMismatch {
-                    what,
-                    expected: vec![b],
-                    got: vec![n],
-                });
-            }
-        }
-        let rows3 = |v: &[[f32; 3]]| {
-            Tensor::<2>::from_data(
-                TensorData::new(v.iter().flatten().copied().collect::<Vec<f32>>(), [b, 3]),
-                device,
-            )
-        };
-        let rows1 = |v: &[f32]| Tensor::<2>::from_data(TensorData::new(v.to_vec(), [b, 1]), device);
-        Ok(Self {
-            beta: rows3(beta),
-            backlight: rows3(backlight),
-            vignette: rows3(vignette),
-            gain: rows1(gain),
-            blur: rows1(blur),
-        })
-    }
 }
 
-/// The head's raw bias that [`WaterParams::from_raw`] maps to the initial parameters
-/// ([`UWGAN_BETA_INIT`], [`BACKLIGHT_INIT`], [`VIGNETTE_INIT`], [`GAIN_INIT`], [`BLUR_INIT`]).
+/// Squared normalised radius `r²` of every pixel of an `h x w` image, row-major: 0 at the
+/// centre (between pixels for even sizes), 1 at the corner pixels' centres. A single pixel has
+/// `r = 0`.
 #[must_use]
-pub fn initial_raw() -> [f32; RAW_PARAMS] {
-    let logit = |p: f32| (p / (1.0 - p)).ln();
-    let beta = UWGAN_BETA_INIT.map(|b| logit(b / BETA_MAX));
-    let backlight = logit(BACKLIGHT_INIT);
-    let vignette = logit(VIGNETTE_INIT / -VIGNETTE_MAX);
-    let gain = logit((GAIN_INIT - GAIN_MIN) / (GAIN_MAX - GAIN_MIN));
-    [
-        beta[0],
-        beta[1],
-        beta[2],
-        backlight,
-        backlight,
-        backlight,
-        vignette,
-        vignette,
-        vignette,
-        gain,
-        logit(BLUR_INIT),
-    ]
-}
-
-/// `[b, n]` per-image values as `[b, n, 1, 1]`, to broadcast over pixels.
-fn per_pixel(v: Tensor<2>) -> Tensor<4> {
-    let [b, n] = v.dims();
-    v.reshape([b, n, 1, 1])
-}
-
-/// Transmission `t_c = exp(−β_c · d)`.
-///
-/// # Shapes
-/// - `depth_m`: `[b, 1, h, w]`, metres; `beta`: `[b, 3]`, per metre; output `[b, 3, h, w]`
-#[must_use]
-pub fn transmission(depth_m: Tensor<4>, beta: Tensor<2>) -> Tensor<4> {
-    (per_pixel(beta) * depth_m).neg().exp() // [b, 3, h, w]
-}
-
-/// The water stage, `J t + B (1 − t)`.
-///
-/// # Shapes
-/// - `clean`, `t`: `[b, 3, h, w]`; `backlight`: `[b, 3]`; output `[b, 3, h, w]`
-#[must_use]
-pub fn water(clean: Tensor<4>, t: Tensor<4>, backlight: Tensor<2>) -> Tensor<4> {
-    let veil = t.clone().neg() + 1.0; // 1 - t
-    clean * t + veil * per_pixel(backlight)
-}
-
-/// Squared normalised radius `r²` of every pixel of an `h x w` image: 0 at the centre (between
-/// pixels for even sizes), 1 at the corner pixels' centres. A single pixel has `r = 0`.
-///
-/// # Shapes
-/// - output `[1, 1, h, w]`
-#[must_use]
-pub fn radius_squared(h: usize, w: usize, device: &Device) -> Tensor<4> {
+pub fn radius_squared(h: usize, w: usize) -> Vec<f32> {
     let (cy, cx) = ((h as f64 - 1.0) / 2.0, (w as f64 - 1.0) / 2.0);
     let norm = cx * cx + cy * cy;
-    let values: Vec<f32> = (0..h)
+    (0..h)
         .flat_map(|y| {
             (0..w).map(move |x| {
                 let (dx, dy) = (x as f64 - cx, y as f64 - cy);
@@ -278,262 +70,152 @@ pub fn radius_squared(h: usize, w: usize, device: &Device) -> Tensor<4> {
                 }
             })
         })
-        .collect();
-    Tensor::<4>::from_data(TensorData::new(values, [1, 1, h, w]), device)
+        .collect()
 }
 
-/// WaterGAN's vignetting profile `V(r) = 1 + a r² + b r⁴ + c r⁶`.
-///
-/// # Shapes
-/// - `coeffs`: `[b, 3]` (a, b, c); output `[b, 1, h, w]`
-#[must_use]
-pub fn vignette_profile(coeffs: Tensor<2>, h: usize, w: usize) -> Tensor<4> {
-    let [b, _] = coeffs.dims();
-    let r2 = radius_squared(h, w, &coeffs.device()); // [1, 1, h, w]
-    let r4 = r2.clone() * r2.clone();
-    let r6 = r4.clone() * r2.clone();
-    let c = |i: usize| coeffs.clone().slice([0..b, i..i + 1]).reshape([b, 1, 1, 1]);
-    r2 * c(0) + r4 * c(1) + r6 * c(2) + 1.0 // [b, 1, h, w]
+/// The 3x3 binomial blur of one plane, renormalised by the kernel weight inside the image.
+fn binomial_blur(plane: &[f32], w: usize, h: usize) -> Vec<f32> {
+    let k = |dy: usize, dx: usize| BINOMIAL[dy] * BINOMIAL[dx] / 16.0;
+    let mut out = vec![0.0f32; w * h];
+    out.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+        for (x, o) in row.iter_mut().enumerate() {
+            let (mut sum, mut support) = (0.0f32, 0.0f32);
+            for dy in 0..3 {
+                let Some(yy) = (y + dy).checked_sub(1).filter(|&v| v < h) else {
+                    continue;
+                };
+                for dx in 0..3 {
+                    let Some(xx) = (x + dx).checked_sub(1).filter(|&v| v < w) else {
+                        continue;
+                    };
+                    sum += k(dy, dx) * plane[yy * w + xx];
+                    support += k(dy, dx);
+                }
+            }
+            *o = sum / support;
+        }
+    });
+    out
 }
 
-/// The optics blur `S_w(x) = (1 − w) x + w G(x)`: `G` is the 3x3 binomial kernel
-/// (`[1 2 1]ᵀ[1 2 1] / 16`) applied per channel and renormalised at the border by the kernel
-/// weight inside the image (a normalised convolution), so a flat image stays flat.
-///
-/// # Shapes
-/// - `image`: `[b, c, h, w]`; `weight`: `[b, 1]`; output `[b, c, h, w]`
-#[must_use]
-pub fn blur(image: Tensor<4>, weight: Tensor<2>) -> Tensor<4> {
-    let [_, c, h, w] = image.dims();
-    let device = image.device();
-    let k: Vec<f32> = BINOMIAL
-        .iter()
-        .flat_map(|a| BINOMIAL.iter().map(move |b| a * b / 16.0))
-        .collect();
-    let kernel = |channels: usize| {
-        let data: Vec<f32> = (0..channels).flat_map(|_| k.iter().copied()).collect();
-        Tensor::<4>::from_data(TensorData::new(data, [channels, 1, 3, 3]), &device)
-    };
-    let opts = |groups: usize| ConvOptions::new([1, 1], [1, 1], [1, 1], groups);
-    let blurred = conv2d(image.clone(), kernel(c), None, opts(c)); // [b, c, h, w]
-    let ones = Tensor::<4>::ones([1, 1, h, w], &device);
-    let support = conv2d(ones, kernel(1), None, opts(1)); // [1, 1, h, w]
-    let g = blurred / support;
-    let wt = per_pixel(weight); // [b, 1, 1, 1]
-    image * (wt.clone().neg() + 1.0) + g * wt
-}
-
-/// Renders the batch: `k · V(r) · S_w(J t + B (1 − t))`, `t = exp(−β · depth · range_m)`
-/// (the blur only when `config.blur`).
-///
-/// # Shapes
-/// - `clean`: `[b, 3, h, w]` in [0, 1]; `depth`: `[b, 1, h, w]` in [0, 1] (larger = farther);
-///   output `[b, 3, h, w]` in [0, 1]
+/// Renders `clean` (RGB in [0, 1]) with its `depth` (1 channel, [0, 1], larger = farther, the
+/// same size) under `values`: `k · V(r) · S_w(J t + B (1 − t))`, clamped to [0, 1] (the render
+/// is in range by construction; the clamp only removes rounding excursions).
 pub fn render(
-    clean: Tensor<4>,
-    depth: Tensor<4>,
-    params: &WaterParams,
+    clean: &Image,
+    depth: &Image,
+    values: &WaterValues,
     config: &ImagingConfig,
-) -> Result<Tensor<4>> {
-    let [b, c, h, w] = clean.dims();
-    if c != RGB {
-        return Err(GanError::ShapeMismatch {
-            what: "clean image channels",
-            expected: vec![RGB],
-            got: vec![c],
-        });
+) -> Result<Image> {
+    check_inputs(clean, depth)?;
+    let (w, h) = clean.size();
+    let range = config.range_m as f32;
+    let r2 = radius_squared(h, w);
+    let [a, b, c] = values.vignette;
+    let vignette: Vec<f32> = r2
+        .iter()
+        .map(|&r2| {
+            let r4 = r2 * r2;
+            let r6 = r4 * r2;
+            r2 * a + r4 * b + r6 * c + 1.0
+        })
+        .collect();
+    let d = depth.data();
+    let mut data = Vec::with_capacity(RGB * w * h);
+    for ch in 0..RGB {
+        let (beta, veil) = (values.beta[ch], values.backlight[ch]);
+        let j = &clean.data()[ch * w * h..(ch + 1) * w * h];
+        let mut plane: Vec<f32> = j
+            .par_iter()
+            .zip(d.par_iter())
+            .map(|(&j, &d)| {
+                let t = (-(beta * (d * range))).exp();
+                j * t + (-t + 1.0) * veil
+            })
+            .collect();
+        if config.blur {
+            let g = binomial_blur(&plane, w, h);
+            let wt = values.blur;
+            for (p, g) in plane.iter_mut().zip(g) {
+                *p = *p * (-wt + 1.0) + g * wt;
+            }
+        }
+        data.extend(
+            plane
+                .iter()
+                .zip(&vignette)
+                .map(|(&p, &v)| (p * v * values.gain).clamp(0.0, 1.0)),
+        );
     }
-    if depth.dims() != [b, 1, h, w] {
-        return Err(GanError::ShapeMismatch {
-            what: "depth map shape",
-            expected: vec![b, 1, h, w],
-            got: depth.dims().to_vec(),
-        });
-    }
-    let pb = params.beta.dims()[0];
-    if pb != b {
-        return Err(GanError::ShapeMismatch {
-            what: "parameter rows",
-            expected: vec![b],
-            got: vec![pb],
-        });
-    }
-    let t = transmission(depth * config.range_m, params.beta.clone()); // [b, 3, h, w]
-    let mut out = water(clean, t, params.backlight.clone());
-    if config.blur {
-        out = blur(out, params.blur.clone());
-    }
-    let v = vignette_profile(params.vignette.clone(), h, w); // [b, 1, h, w]
-    Ok(out * v * per_pixel(params.gain.clone()))
+    Ok(Image::from_planar(w, h, RGB, data)?)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::error::to_vec;
 
-    fn dev() -> Device {
-        Device::flex()
+    #[test]
+    fn no_water_and_no_vignette_leave_the_image() {
+        let values = WaterValues {
+            beta: [0.0; 3],
+            backlight: [0.5; 3],
+            vignette: [0.0; 3],
+            gain: 1.0,
+            blur: 0.0,
+        };
+        let clean =
+            Image::from_planar(3, 2, 3, (0..18).map(|i| i as f32 / 18.0).collect()).unwrap();
+        let depth = Image::from_planar(3, 2, 1, vec![0.7; 6]).unwrap();
+        let out = render(&clean, &depth, &values, &ImagingConfig::default()).unwrap();
+        assert_eq!(out, clean);
     }
 
-    fn close(got: &[f32], want: &[f32], tol: f32) {
-        assert_eq!(got.len(), want.len());
-        for (i, (g, w)) in got.iter().zip(want).enumerate() {
-            assert!((g - w).abs() <= tol, "element {i}: got {g}, want {w}");
+    #[test]
+    fn far_pixels_take_the_veiling_light() {
+        let values = WaterValues {
+            beta: [BETA_MAX; 3],
+            backlight: [0.2, 0.5, 0.8],
+            vignette: [0.0; 3],
+            gain: 1.0,
+            blur: 0.0,
+        };
+        let clean = Image::from_planar(2, 1, 3, vec![1.0; 6]).unwrap();
+        // Depth 1 is 10 m: exp(−15) of the scene is left.
+        let depth = Image::from_planar(2, 1, 1, vec![0.0, 1.0]).unwrap();
+        let out = render(&clean, &depth, &values, &ImagingConfig::default()).unwrap();
+        for (c, veil) in [0.2f32, 0.5, 0.8].into_iter().enumerate() {
+            assert_eq!(out.plane(c)[0], 1.0);
+            assert!((out.plane(c)[1] - veil).abs() < 1e-5);
         }
     }
 
-    fn params(beta: [f32; 3], b: [f32; 3], vig: [f32; 3], k: f32, w: f32) -> WaterParams {
-        WaterParams::from_values(&[beta], &[b], &[vig], &[k], &[w], &dev()).unwrap()
-    }
-
     #[test]
-    fn attenuation_and_backscatter_match_hand_values() {
-        // One pixel, J = (0.8, 0.6, 0.4), relative depth 0.2 -> 2 m; beta = (0.5, 0.1, 0) /m;
-        // B = (0.1, 0.5, 0.7); no vignetting (r = 0 for one pixel anyway), k = 1.
-        let d = dev();
-        let clean =
-            Tensor::<4>::from_data(TensorData::new(vec![0.8_f32, 0.6, 0.4], [1, 3, 1, 1]), &d);
-        let depth = Tensor::<4>::from_data(TensorData::new(vec![0.2_f32], [1, 1, 1, 1]), &d);
-        let p = params([0.5, 0.1, 0.0], [0.1, 0.5, 0.7], [0.0; 3], 1.0, 0.0);
-        let out = to_vec(render(clean, depth, &p, &ImagingConfig::default()).unwrap()).unwrap();
-        // t = exp(-1) = 0.367879, exp(-0.2) = 0.818731, 1.
-        let t = [(-1.0_f32).exp(), (-0.2_f32).exp(), 1.0];
-        let want: Vec<f32> = (0..3)
-            .map(|c| [0.8, 0.6, 0.4][c] * t[c] + [0.1, 0.5, 0.7][c] * (1.0 - t[c]))
-            .collect();
-        close(&out, &want, 1e-6);
-        // Written out: R = 0.8 * 0.367879 + 0.1 * 0.632121 = 0.357515.
-        close(&out[..1], &[0.357_515], 1e-5);
-        // The gain scales everything.
-        let clean =
-            Tensor::<4>::from_data(TensorData::new(vec![0.8_f32, 0.6, 0.4], [1, 3, 1, 1]), &d);
-        let depth = Tensor::<4>::zeros([1, 1, 1, 1], &d);
-        let p = params([0.5, 0.1, 0.0], [0.1, 0.5, 0.7], [0.0; 3], 0.5, 0.0);
-        let out = to_vec(render(clean, depth, &p, &ImagingConfig::default()).unwrap()).unwrap();
-        close(&out, &[0.4, 0.3, 0.2], 1e-6);
-    }
-
-    #[test]
-    fn vignetting_is_one_at_the_centre_and_the_polynomial_at_the_corners() {
-        // 3x3: centre r = 0, corners r = 1, edge midpoints r^2 = 1/2.
-        let r2 = to_vec(radius_squared(3, 3, &dev())).unwrap();
-        close(&r2, &[1.0, 0.5, 1.0, 0.5, 0.0, 0.5, 1.0, 0.5, 1.0], 1e-6);
-        let coeffs =
-            Tensor::<2>::from_data(TensorData::new(vec![-0.2_f32, -0.1, -0.05], [1, 3]), &dev());
-        let v = to_vec(vignette_profile(coeffs, 3, 3)).unwrap();
-        let edge = 1.0 - 0.2 * 0.5 - 0.1 * 0.25 - 0.05 * 0.125; // 0.86875
-        let corner = 1.0 - 0.2 - 0.1 - 0.05; // 0.65
-        close(
-            &v,
-            &[corner, edge, corner, edge, 1.0, edge, corner, edge, corner],
-            1e-6,
-        );
-        // 2x2: every pixel is a corner.
-        let r2 = to_vec(radius_squared(2, 2, &dev())).unwrap();
-        close(&r2, &[1.0; 4], 1e-6);
-        assert_eq!(to_vec(radius_squared(1, 1, &dev())).unwrap(), vec![0.0]);
-    }
-
-    #[test]
-    fn blur_keeps_flat_images_and_spreads_a_point_binomially() {
-        let d = dev();
-        let flat = Tensor::<4>::ones([1, 3, 4, 5], &d) * 0.3;
-        let w = Tensor::<2>::ones([1, 1], &d);
-        close(&to_vec(blur(flat, w.clone())).unwrap(), &[0.3; 60], 1e-6);
-        // A unit impulse at the centre of 3x3, full blur: the binomial kernel itself.
-        let mut v = vec![0.0_f32; 9];
-        v[4] = 1.0;
-        let x = Tensor::<4>::from_data(TensorData::new(v, [1, 1, 3, 3]), &d);
-        let got = to_vec(blur(x.clone(), w)).unwrap();
-        // Centre 4/16; edge midpoints: 2/16 of the impulse over the kernel weight inside the
-        // image (12/16 at an edge midpoint) = 1/6; corners: 1/16 over 9/16 = 1/9.
-        let (e, c) = (2.0 / 12.0, 1.0 / 9.0);
-        close(&got, &[c, e, c, e, 0.25, e, c, e, c], 1e-6);
-        // Half weight blends half-way.
-        let half = Tensor::<2>::ones([1, 1], &d) * 0.5;
-        let got = to_vec(blur(x, half)).unwrap();
-        close(&got[4..5], &[0.5 * 1.0 + 0.5 * 0.25], 1e-6);
-    }
-
-    #[test]
-    fn raw_zero_maps_to_mid_ranges_and_initial_raw_to_the_initial_values() {
-        let d = dev();
-        let p = WaterParams::from_raw(Tensor::<2>::zeros([2, RAW_PARAMS], &d));
-        close(&to_vec(p.beta).unwrap(), &[0.75; 6], 1e-6);
-        close(&to_vec(p.backlight).unwrap(), &[0.5; 6], 1e-6);
-        close(&to_vec(p.vignette).unwrap(), &[-0.15; 6], 1e-6);
-        close(&to_vec(p.gain).unwrap(), &[0.75; 2], 1e-6);
-        close(&to_vec(p.blur).unwrap(), &[0.5; 2], 1e-6);
-        let raw =
-            Tensor::<2>::from_data(TensorData::new(initial_raw().to_vec(), [1, RAW_PARAMS]), &d);
-        let p = WaterParams::from_raw(raw);
-        close(&to_vec(p.beta).unwrap(), &UWGAN_BETA_INIT, 1e-5);
-        close(&to_vec(p.vignette).unwrap(), &[VIGNETTE_INIT; 3], 1e-6);
-        close(&to_vec(p.gain).unwrap(), &[GAIN_INIT], 1e-6);
-        close(&to_vec(p.blur).unwrap(), &[BLUR_INIT], 1e-6);
-    }
-
-    #[test]
-    fn renders_stay_in_the_unit_range_at_the_parameter_extremes() {
-        let d = dev();
-        let clean = Tensor::<4>::ones([2, 3, 5, 6], &d);
-        let depth = Tensor::<4>::ones([2, 1, 5, 6], &d);
+    fn a_flat_image_stays_flat_under_the_blur_and_the_corners_darken() {
+        let values = WaterValues {
+            beta: [0.0; 3],
+            backlight: [0.0; 3],
+            vignette: [-VIGNETTE_MAX; 3],
+            gain: 1.0,
+            blur: 1.0,
+        };
         let cfg = ImagingConfig {
             blur: true,
             ..ImagingConfig::default()
         };
-        for x in [-30.0_f32, 0.0, 30.0] {
-            let p = WaterParams::from_raw(Tensor::<2>::ones([2, RAW_PARAMS], &d) * x);
-            let out = to_vec(render(clean.clone(), depth.clone(), &p, &cfg).unwrap()).unwrap();
-            assert!(
-                out.iter().all(|v| (0.0..=1.0).contains(v) && v.is_finite()),
-                "raw {x}"
-            );
-        }
+        let clean = Image::from_planar(5, 5, 3, vec![0.4; 75]).unwrap();
+        let depth = Image::from_planar(5, 5, 1, vec![0.0; 25]).unwrap();
+        let out = render(&clean, &depth, &values, &cfg).unwrap();
+        assert!((out.plane(0)[12] - 0.4).abs() < 1e-6);
+        assert!((out.plane(0)[0] - 0.4 * (1.0 - 3.0 * VIGNETTE_MAX)).abs() < 1e-5);
     }
 
     #[test]
-    fn mismatched_inputs_are_refused() {
-        let d = dev();
-        let p = params([0.1; 3], [0.5; 3], [0.0; 3], 1.0, 0.0);
-        let cfg = ImagingConfig::default();
-        let err = render(
-            Tensor::zeros([1, 3, 4, 4], &d),
-            Tensor::zeros([1, 1, 4, 5], &d),
-            &p,
-            &cfg,
-        )
-        .unwrap_err();
-        assert!(
-            matches!(
-                err,
-                GanError::ShapeMismatch {
-                    what: "depth map shape",
-                    ..
-                }
-            ),
-            "{err}"
-        );
-        let err = render(
-            Tensor::zeros([2, 3, 4, 4], &d),
-            Tensor::zeros([2, 1, 4, 4], &d),
-            &p,
-            &cfg,
-        )
-        .unwrap_err();
-        assert!(
-            matches!(
-                err,
-                GanError::ShapeMismatch {
-                    what: "parameter rows",
-                    ..
-                }
-            ),
-            "{err}"
-        );
-        assert!(
-            WaterParams::from_values(&[[0.0; 3]], &[], &[[0.0; 3]], &[1.0], &[0.0], &d).is_err()
-        );
+    fn the_raw_mapping_stays_in_range() {
+        for x in [-50.0f32, 0.0, 50.0] {
+            let v = WaterValues::from_raw(&[x; RAW_PARAMS]);
+            assert!(v.beta.iter().all(|b| (0.0..=BETA_MAX).contains(b)));
+            assert!((GAIN_MIN..=GAIN_MAX).contains(&v.gain));
+            assert!(v.vignette.iter().all(|a| (-VIGNETTE_MAX..=0.0).contains(a)));
+        }
     }
 }

@@ -1,98 +1,127 @@
 //! Generator weights as safetensors: burn's module paths as keys (`encoder.0.weight`,
 //! `encoder.0.bias`, ..., `hidden.weight`, `head.bias`; linear weights in burn's `[in, out]`
 //! layout) and the [`GeneratorConfig`] as JSON in the metadata, so [`load_generator`] rebuilds
-//! the network from the file alone. Only the generator is exported: rendering needs no
-//! discriminator (training checkpoints keep both, in uwnr-run's own files).
+//! the network from the file alone. Read here for rendering; the training wing
+//! (`uwnr-gan-train`) writes them. Only the generator is exported: rendering needs no
+//! discriminator.
 
-use std::collections::BTreeMap;
 use std::path::Path;
 
-use burn::store::{ModuleSnapshot, SafetensorsStore};
-use burn::tensor::Device;
+use safetensors::{Dtype, SafeTensors};
 
+use crate::config::{ENCODER_IN, GeneratorConfig, RAW_PARAMS};
 use crate::error::{GanError, Result};
-use crate::model::{Generator, GeneratorConfig};
+use crate::generator::{Conv, Generator, Linear};
 
 /// The generator's weights inside each checkpoint folder.
 pub const GENERATOR_FILE: &str = "generator.safetensors";
 /// Safetensors metadata key of the [`GeneratorConfig`] (JSON).
 pub const CONFIG_METADATA_KEY: &str = "uwnr.gan.generator_config";
-
-/// Saves the generator (f32) with its config and `metadata` (replacing a file at `path`).
-pub fn save_generator(
-    generator: &Generator,
-    path: &Path,
-    metadata: &BTreeMap<String, String>,
-) -> Result<()> {
-    let bad = |reason: String| GanError::Weights {
-        path: path.to_path_buf(),
-        reason,
-    };
-    let config = serde_json::to_string(&generator.config).map_err(|e| bad(e.to_string()))?;
-    let mut store = SafetensorsStore::from_file(path)
-        .overwrite(true)
-        .metadata(CONFIG_METADATA_KEY, config);
-    for (k, v) in metadata {
-        store = store.metadata(k.clone(), v.clone());
-    }
-    generator
-        .save_into(&mut store)
-        .map_err(|e| bad(format!("writing the generator: {e}")))
-}
+/// How the bundled generator is named in messages and dataset settings.
+pub const BUNDLED_GAN_NAME: &str = "bundled UWGAN model";
 
 /// The generator config stored in a weights file's metadata.
 pub fn read_config(path: &Path) -> Result<GeneratorConfig> {
     config_from_bytes(&read(path)?, path)
 }
 
-/// Loads a generator saved by [`save_generator`]: its config from the metadata, then every
+/// Loads a generator saved by `uwnr gan train`: its config from the metadata, then every
 /// tensor, checking none is missing, unexpected or of the wrong shape.
-pub fn load_generator(path: &Path, device: &Device) -> Result<Generator> {
-    load_generator_from_bytes(read(path)?, path, device)
+pub fn load_generator(path: &Path) -> Result<Generator> {
+    load_generator_from_bytes(&read(path)?, path)
 }
 
 /// [`load_generator`] from the bytes of a weights file; `name` says where they came from (a
 /// path, or the bundled model) in errors.
-pub fn load_generator_from_bytes(
-    bytes: Vec<u8>,
-    name: &Path,
-    device: &Device,
-) -> Result<Generator> {
+pub fn load_generator_from_bytes(bytes: &[u8], name: &Path) -> Result<Generator> {
     let bad = |reason: String| GanError::Weights {
         path: name.to_path_buf(),
         reason,
     };
-    let config = config_from_bytes(&bytes, name)?;
-    let mut generator = config.init(device)?;
-    let mut store = SafetensorsStore::from_bytes(Some(bytes));
-    let result = generator
-        .load_from(&mut store)
-        .map_err(|e| bad(format!("reading the generator: {e}")))?;
-    if !result.errors.is_empty() || !result.missing.is_empty() || !result.unused.is_empty() {
+    let config = config_from_bytes(bytes, name)?;
+    let st =
+        SafeTensors::deserialize(bytes).map_err(|e| bad(format!("not a safetensors file: {e}")))?;
+    let mut used = Vec::new();
+    let mut tensor = |key: String, shape: &[usize]| -> Result<Vec<f32>> {
+        let view = st.tensor(&key).map_err(|_| {
+            bad(format!(
+                "tensors do not match the generator: {key} is missing"
+            ))
+        })?;
+        if view.shape() != shape {
+            return Err(bad(format!(
+                "tensors do not match the generator: {key} has shape {:?}, expected {shape:?}",
+                view.shape()
+            )));
+        }
+        if view.dtype() != Dtype::F32 {
+            return Err(bad(format!("{key} is {:?}, expected F32", view.dtype())));
+        }
+        used.push(key);
+        Ok(view
+            .data()
+            .chunks_exact(4)
+            .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+            .collect())
+    };
+    let mut encoder = Vec::with_capacity(config.widths.len());
+    let mut cin = ENCODER_IN;
+    for (i, &cout) in config.widths.iter().enumerate() {
+        encoder.push(Conv {
+            weight: tensor(format!("encoder.{i}.weight"), &[cout, cin, 3, 3])?,
+            bias: tensor(format!("encoder.{i}.bias"), &[cout])?,
+            cin,
+            cout,
+        });
+        cin = cout;
+    }
+    let linear = |tensor: &mut dyn FnMut(String, &[usize]) -> Result<Vec<f32>>,
+                  name: &str,
+                  din: usize,
+                  dout: usize|
+     -> Result<Linear> {
+        Ok(Linear {
+            weight: tensor(format!("{name}.weight"), &[din, dout])?,
+            bias: tensor(format!("{name}.bias"), &[dout])?,
+            din,
+            dout,
+        })
+    };
+    let hidden = linear(&mut tensor, "hidden", cin + config.z_dim, config.hidden)?;
+    let head = linear(&mut tensor, "head", config.hidden, RAW_PARAMS)?;
+    let unexpected: Vec<String> = st
+        .names()
+        .into_iter()
+        .filter(|k| !used.iter().any(|u| u == k))
+        .map(str::to_string)
+        .collect();
+    if !unexpected.is_empty() {
         return Err(bad(format!(
-            "tensors do not match the generator: errors {:?}, missing {:?}, unexpected {:?}",
-            result.errors, result.missing, result.unused
+            "tensors do not match the generator: unexpected {unexpected:?}"
         )));
     }
-    Ok(generator)
+    Ok(Generator {
+        encoder,
+        hidden,
+        head,
+        config,
+    })
 }
 
 fn read(path: &Path) -> Result<Vec<u8>> {
-    Ok(
-        std::fs::read(path).map_err(|source| uwnr_run::RunError::Io {
-            path: path.to_path_buf(),
-            source,
-        })?,
-    )
+    std::fs::read(path).map_err(|e| GanError::Weights {
+        path: path.to_path_buf(),
+        reason: e.to_string(),
+    })
 }
 
 /// The [`GeneratorConfig`] in the metadata of the safetensors `bytes` (named `name` in errors).
-fn config_from_bytes(bytes: &[u8], name: &Path) -> Result<GeneratorConfig> {
+pub fn config_from_bytes(bytes: &[u8], name: &Path) -> Result<GeneratorConfig> {
     let bad = |reason: String| GanError::Weights {
         path: name.to_path_buf(),
         reason,
     };
-    let (_, meta) = safetensors::SafeTensors::read_metadata(bytes)
+    let (_, meta) = SafeTensors::read_metadata(bytes)
         .map_err(|e| bad(format!("not a safetensors file: {e}")))?;
     let json = meta
         .metadata()
@@ -109,9 +138,6 @@ fn config_from_bytes(bytes: &[u8], name: &Path) -> Result<GeneratorConfig> {
     Ok(config)
 }
 
-/// How the bundled generator is named in messages and dataset settings.
-pub const BUNDLED_GAN_NAME: &str = "bundled UWGAN model";
-
 /// The bundled generator's weights (`assets/model/uwgan-default.safetensors`, embedded at build
 /// time when it exists and the `bundled-model` feature is on), or `None` in a build without.
 #[must_use]
@@ -126,13 +152,9 @@ pub fn bundled_gan_weights() -> Option<&'static [u8]> {
     }
 }
 
-/// The generator of `weights`, or the bundled one; with the weight bytes (for fingerprints) and
-/// where they came from.
-pub fn generator_or_bundled(
-    weights: Option<&Path>,
-    device: &Device,
-) -> Result<(Generator, Vec<u8>, String)> {
-    let (bytes, name) = match weights {
+/// The bytes of `weights`, or of the bundled generator, with where they came from.
+pub fn weights_or_bundled(weights: Option<&Path>) -> Result<(Vec<u8>, String)> {
+    Ok(match weights {
         Some(p) => (read(p)?, p.display().to_string()),
         None => (
             bundled_gan_weights()
@@ -145,93 +167,50 @@ pub fn generator_or_bundled(
                 .to_vec(),
             BUNDLED_GAN_NAME.to_string(),
         ),
-    };
-    let generator = load_generator_from_bytes(bytes.clone(), Path::new(&name), device)?;
+    })
+}
+
+/// The generator of `weights`, or the bundled one; with the weight bytes (for fingerprints) and
+/// where they came from.
+pub fn generator_or_bundled(weights: Option<&Path>) -> Result<(Generator, Vec<u8>, String)> {
+    let (bytes, name) = weights_or_bundled(weights)?;
+    let generator = load_generator_from_bytes(&bytes, Path::new(&name))?;
     Ok((generator, bytes, name))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::error::to_vec;
-    use crate::model::sample_z;
-    use burn::tensor::Tensor;
-
-    fn small() -> GeneratorConfig {
-        GeneratorConfig {
-            z_dim: 4,
-            widths: vec![4, 8],
-            hidden: 8,
-            encoder_size: 8,
-            ..GeneratorConfig::default()
-        }
-    }
 
     #[test]
-    fn a_saved_generator_loads_back_with_its_config_and_renders_the_same() {
-        let d = Device::flex();
-        let cfg = GeneratorConfig {
-            imaging: crate::imaging::ImagingConfig {
-                blur: true,
-                range_m: 4.0,
-            },
-            ..small()
-        };
-        let g = cfg.init(&d).unwrap();
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join(GENERATOR_FILE);
-        let mut meta = BTreeMap::new();
-        meta.insert("source".to_string(), "test".to_string());
-        save_generator(&g, &path, &meta).unwrap();
-        // Saving again replaces the file.
-        save_generator(&g, &path, &meta).unwrap();
-        let back = load_generator(&path, &d).unwrap();
-        assert_eq!(back.config, cfg);
-        let clean = Tensor::<4>::ones([1, 3, 8, 8], &d) * 0.4;
-        let depth = Tensor::<4>::ones([1, 1, 8, 8], &d) * 0.3;
-        let z = sample_z(1, 1, 4, &d);
-        let a = to_vec(
-            g.forward(clean.clone(), depth.clone(), z.clone())
-                .unwrap()
-                .0,
+    fn junk_and_files_without_the_config_are_refused() {
+        let err = load_generator_from_bytes(b"junk", Path::new("x")).unwrap_err();
+        assert!(matches!(err, GanError::Weights { .. }), "{err}");
+        let bytes = safetensors::serialize(
+            [(
+                "a",
+                safetensors::tensor::TensorView::new(Dtype::F32, vec![1], &[0u8; 4]).unwrap(),
+            )],
+            None,
         )
         .unwrap();
-        let b = to_vec(back.forward(clean, depth, z).unwrap().0).unwrap();
-        assert_eq!(a, b);
+        let err = load_generator_from_bytes(&bytes, Path::new("x")).unwrap_err();
+        assert!(err.to_string().contains(CONFIG_METADATA_KEY), "{err}");
     }
 
     #[test]
-    fn weights_load_from_a_path_or_the_bundled_model() {
-        let d = Device::flex();
-        let g = small().init(&d).unwrap();
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join(GENERATOR_FILE);
-        save_generator(&g, &path, &BTreeMap::new()).unwrap();
-        let (back, bytes, name) = generator_or_bundled(Some(&path), &d).unwrap();
-        assert_eq!(back.config, g.config);
-        assert_eq!(bytes, std::fs::read(&path).unwrap());
-        assert_eq!(name, path.display().to_string());
+    fn the_bundled_generator_loads_when_this_build_has_one() {
         match bundled_gan_weights() {
             Some(b) => {
-                let (_, bytes, name) = generator_or_bundled(None, &d).unwrap();
+                let (g, bytes, name) = generator_or_bundled(None).unwrap();
                 assert_eq!(bytes, b);
                 assert_eq!(name, BUNDLED_GAN_NAME);
+                assert_eq!(g.config.widths.len(), g.encoder.len());
             }
             None => {
-                let err = generator_or_bundled(None, &d).unwrap_err().to_string();
+                let err = generator_or_bundled(None).unwrap_err().to_string();
                 assert!(err.contains("no bundled UWGAN model"), "{err}");
             }
         }
-        let err = load_generator_from_bytes(b"junk".to_vec(), Path::new("x"), &d).unwrap_err();
-        assert!(matches!(err, GanError::Weights { .. }), "{err}");
-    }
-
-    #[test]
-    fn a_file_without_the_config_is_refused() {
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("x.safetensors");
-        std::fs::write(&path, b"not safetensors").unwrap();
-        let err = load_generator(&path, &Device::flex()).unwrap_err();
-        assert!(matches!(err, GanError::Weights { .. }), "{err}");
     }
 }

@@ -21,7 +21,6 @@
 //! up to float rounding; with a smaller overlap the ramp spreads over the whole overlap and
 //! hides, rather than removes, the seams.
 
-use burn::tensor::{Device, Tensor, TensorData};
 use uwnr_core::Image;
 use uwnr_core::index::reflect101;
 use uwnr_core::lightfield::{LightFieldMap, light_field_for_with};
@@ -30,15 +29,13 @@ use uwnr_engine::Planar;
 
 use crate::config::{LEVELS, SIZE_MULTIPLE};
 use crate::error::{ModelError, Result};
-use crate::generator::Generator;
 use crate::style::{
     DepthResponse, ReferenceStyle, Variant, Water, anchor, finish, finish_uncorrected, water_anchor,
 };
-use crate::weights::read_tensor;
 
-/// What tiled rendering needs of a generator implementation (burn's module or the engine),
-/// on planar `[c][h][w]` tensors of one image.
-pub(crate) trait Forward {
+/// What tiled rendering needs of a generator implementation (the engine, or burn's module in
+/// the training wing), on planar `[c][h][w]` tensors of one image.
+pub trait Forward {
     /// Input and output channels.
     fn channels(&self) -> (usize, usize);
     /// The released forward pass.
@@ -47,74 +44,6 @@ pub(crate) trait Forward {
     fn forward_with_means(&self, x: Planar, means: &[Vec<f32>]) -> Result<Planar>;
     /// Block `known.len()`'s channel-attention input, earlier blocks gated with `known`.
     fn attention_input(&self, x: Planar, known: &[Vec<f32>]) -> Result<Planar>;
-}
-
-/// Burn's generator on a device.
-pub(crate) struct BurnForward<'a> {
-    pub generator: &'a Generator,
-    pub device: &'a Device,
-}
-
-impl BurnForward<'_> {
-    fn tensor(&self, x: Planar) -> Tensor<4> {
-        Tensor::from_data(
-            TensorData::new(x.data, [1, x.channels, x.height, x.width]),
-            self.device,
-        )
-    }
-
-    fn means(&self, means: &[Vec<f32>]) -> Vec<Tensor<4>> {
-        means
-            .iter()
-            .map(|m| Tensor::from_data(TensorData::new(m.clone(), [1, m.len(), 1, 1]), self.device))
-            .collect()
-    }
-}
-
-fn planar(t: Tensor<4>) -> Result<Planar> {
-    let t = read_tensor(t)?;
-    match t.shape[..] {
-        [1, channels, height, width] => Ok(Planar {
-            channels,
-            height,
-            width,
-            data: t.data,
-        }),
-        _ => Err(ModelError::Backend(format!(
-            "expected a [1, c, h, w] tensor, got {:?}",
-            t.shape
-        ))),
-    }
-}
-
-impl Forward for BurnForward<'_> {
-    fn channels(&self) -> (usize, usize) {
-        let [_, cin, _, _] = self.generator.in_conv_down1.conv.weight.dims();
-        let [cout, _, _, _] = self.generator.out.weight.dims();
-        (cin, cout)
-    }
-
-    fn forward(&self, x: Planar) -> Result<Planar> {
-        planar(self.generator.forward(self.tensor(x)))
-    }
-
-    fn forward_with_means(&self, x: Planar, means: &[Vec<f32>]) -> Result<Planar> {
-        let means: [Tensor<4>; LEVELS] = self
-            .means(means)
-            .try_into()
-            .map_err(|_| ModelError::InvalidOptions("channel means incomplete".into()))?;
-        planar(
-            self.generator
-                .forward_with_channel_means(self.tensor(x), &means),
-        )
-    }
-
-    fn attention_input(&self, x: Planar, known: &[Vec<f32>]) -> Result<Planar> {
-        planar(
-            self.generator
-                .channel_attention_input(self.tensor(x), &self.means(known))?,
-        )
-    }
 }
 
 impl Forward for uwnr_engine::Generator {
@@ -213,41 +142,11 @@ impl RenderOptions {
     }
 }
 
-/// Renders `clean` (3 channels) as an underwater image in the style of `light_field`
-/// (3 channels, the light-field map of a real underwater image), using `depth` (1 channel),
-/// with a generator of the paper's variant. All three must have the same size; the output has
-/// it too, with values in [0, 1].
-///
-/// This runs burn's module on `device`; [`crate::Network::render`] runs the engine or burn,
-/// whichever the network was loaded for, and any variant.
-pub fn render(
-    generator: &Generator,
-    clean: &Image,
-    depth: &Image,
-    light_field: &Image,
-    opts: &RenderOptions,
-    device: &Device,
-) -> Result<Image> {
-    if light_field.size() != clean.size() {
-        return Err(ModelError::ImageSize {
-            what: "light-field map",
-            expected: clean.size(),
-            got: light_field.size(),
-        });
-    }
-    render_with(
-        &BurnForward { generator, device },
-        Variant::Paper,
-        clean,
-        depth,
-        &ReferenceStyle::from_light_field(light_field.clone()),
-        opts,
-    )
-}
-
-/// [`render`] on any implementation of the generator and any variant; the style's light field
-/// is resized to the clean image's size.
-pub(crate) fn render_with(
+/// Renders `clean` (3 channels) as an underwater image in the style of a reference, using
+/// `depth` (1 channel, the same size), on any implementation of the generator and any variant;
+/// the style's light field is resized to the clean image's size. The output has the clean
+/// image's size, values in [0, 1].
+pub fn render_with(
     generator: &dyn Forward,
     variant: Variant,
     clean: &Image,

@@ -1,7 +1,8 @@
 //! A loaded UWNR generator ready to render, on the implementation chosen at the edge: the
-//! dedicated engine (`uwnr-engine`, the default) or burn's module on a burn device (`flex`,
-//! or `tch` with that feature), kept for comparison and for training. Both render through the
-//! same padding and tiling code ([`crate::infer`]) and agree within 1e-4 on the output.
+//! dedicated engine (`uwnr-engine`, in f32 or with bf16 products), or any other
+//! [`Implementation`] of the forward pass (the training wing's burn module, for validation
+//! renders and parity checks). Every implementation renders through the same padding and
+//! tiling code ([`crate::infer`]); burn's and the engine's outputs agree within 1e-4.
 
 use std::path::Path;
 use std::sync::Arc;
@@ -11,13 +12,11 @@ use uwnr_engine::{EngineOptions, Precision};
 
 use crate::config::{GeneratorConfig, Variant};
 use crate::error::{ModelError, Result};
-use crate::generator::Generator;
-use crate::infer::{BurnForward, RenderOptions, render_with};
+use crate::infer::{Forward, RenderOptions, render_with};
 use crate::style::ReferenceStyle;
 pub use crate::weights::engine_weights;
 use crate::weights::{
-    LoadedWeights, TensorMap, WeightsInfo, generator_from_tensors, generator_to_tensors,
-    read_weights, read_weights_from_bytes,
+    LoadedWeights, TensorMap, WeightsInfo, read_weights, read_weights_from_bytes,
 };
 
 /// Which implementation runs the generator.
@@ -29,45 +28,52 @@ pub enum Backend {
     /// AVX512_BF16 (emulated, so no faster, elsewhere), outputs a little off `Engine`'s (see
     /// the README's bf16 figures).
     EngineBf16,
-    /// burn's module on this device (`flex`, `tch`).
-    Burn(burn::tensor::Device),
 }
 
-/// Names [`backend_from_name`] accepts in this build, the default first.
+/// Names [`backend_from_name`] accepts, the default first.
 #[must_use]
 pub fn backend_names() -> Vec<&'static str> {
-    let mut names = vec![ENGINE_NAME];
-    names.extend_from_slice(crate::device_names());
-    names
+    vec![ENGINE_NAME]
 }
 
 /// Name of the engine backend.
 pub const ENGINE_NAME: &str = "engine";
 
-/// The backend called `name`: `"engine"`, or a burn device name ([`crate::device_from_name`]).
+/// The backend called `name`: `"engine"` (bf16 products are [`Backend::EngineBf16`], chosen by
+/// precision rather than by name).
 pub fn backend_from_name(name: &str) -> Result<Backend> {
     if name == ENGINE_NAME {
         return Ok(Backend::Engine);
     }
-    crate::device_from_name(name)
-        .map(Backend::Burn)
-        .map_err(|_| ModelError::UnknownDevice {
-            name: name.to_string(),
-            available: backend_names().join(", "),
-        })
+    Err(ModelError::UnknownDevice {
+        name: name.to_string(),
+        available: backend_names().join(", "),
+    })
+}
+
+/// A forward pass of the generator other than the engine's, handed to a [`Network`] with
+/// [`Network::from_implementation`] (the training wing's burn module is one).
+pub trait Implementation: Forward + Send + Sync + std::fmt::Debug {
+    /// Its name in reports (e.g. the burn device).
+    fn name(&self) -> String;
+    /// A copy for another worker.
+    fn clone_box(&self) -> Box<dyn Implementation>;
+}
+
+impl Clone for Box<dyn Implementation> {
+    fn clone(&self) -> Self {
+        self.clone_box()
+    }
 }
 
 #[derive(Clone, Debug)]
 enum Imp {
     Engine(Arc<uwnr_engine::Generator>),
-    Burn {
-        generator: Box<Generator>,
-        device: burn::tensor::Device,
-    },
+    Other(Box<dyn Implementation>),
 }
 
 /// A generator with its config, ready to render. Cloning is cheap for the engine (shared,
-/// immutable weights) and clones burn's module otherwise.
+/// immutable weights) and copies another implementation's module.
 #[derive(Clone, Debug)]
 pub struct Network {
     config: GeneratorConfig,
@@ -108,32 +114,17 @@ impl Network {
         backend: &Backend,
     ) -> Result<(Self, Vec<String>)> {
         let zero_output = config.variant == Variant::Anchored && output_is_zero(&tensors);
-        let (imp, ignored) = match backend {
-            Backend::Engine | Backend::EngineBf16 => {
-                let (weights, ignored) = engine_weights(config, tensors)?;
-                let precision = if matches!(backend, Backend::EngineBf16) {
-                    Precision::Bf16
-                } else {
-                    Precision::F32
-                };
-                let opts = EngineOptions {
-                    precision,
-                    ..EngineOptions::default()
-                };
-                let engine = uwnr_engine::Generator::with_options(&weights, opts)?;
-                (Imp::Engine(Arc::new(engine)), ignored)
-            }
-            Backend::Burn(device) => {
-                let (generator, ignored) = generator_from_tensors(config, tensors, device)?;
-                (
-                    Imp::Burn {
-                        generator: Box::new(generator),
-                        device: device.clone(),
-                    },
-                    ignored,
-                )
-            }
+        let (weights, ignored) = engine_weights(config, tensors)?;
+        let precision = match backend {
+            Backend::Engine => Precision::F32,
+            Backend::EngineBf16 => Precision::Bf16,
         };
+        let opts = EngineOptions {
+            precision,
+            ..EngineOptions::default()
+        };
+        let engine = uwnr_engine::Generator::with_options(&weights, opts)?;
+        let imp = Imp::Engine(Arc::new(engine));
         Ok((
             Self {
                 config: *config,
@@ -154,25 +145,14 @@ impl Network {
         Self::from_weights(read_weights_from_bytes(bytes)?, backend)
     }
 
-    /// The network of a burn module (e.g. the one being trained) on `backend`.
-    pub fn from_generator(
-        generator: &Generator,
-        config: &GeneratorConfig,
-        backend: &Backend,
-    ) -> Result<Self> {
-        match backend {
-            Backend::Burn(device) => Ok(Self {
-                config: *config,
-                imp: Imp::Burn {
-                    generator: Box::new(generator.clone()),
-                    device: device.clone(),
-                },
-                zero_output: false,
-            }),
-            Backend::Engine | Backend::EngineBf16 => {
-                let tensors = generator_to_tensors(generator, config)?;
-                Ok(Self::from_tensors(config, tensors, backend)?.0)
-            }
+    /// The network of another implementation of the forward pass (e.g. burn's module being
+    /// trained) with its config.
+    #[must_use]
+    pub fn from_implementation(config: &GeneratorConfig, imp: Box<dyn Implementation>) -> Self {
+        Self {
+            config: *config,
+            imp: Imp::Other(imp),
+            zero_output: false,
         }
     }
 
@@ -195,7 +175,7 @@ impl Network {
         matches!(&self.imp, Imp::Engine(e) if e.options().precision == Precision::Bf16)
     }
 
-    /// The backend's name (`engine`, `engine (bf16)`, `flex`, `tch`).
+    /// The backend's name (`engine`, `engine (bf16)`, or another implementation's).
     #[must_use]
     pub fn backend_name(&self) -> String {
         match &self.imp {
@@ -203,7 +183,7 @@ impl Network {
                 format!("{ENGINE_NAME} (bf16)")
             }
             Imp::Engine(_) => ENGINE_NAME.to_string(),
-            Imp::Burn { device, .. } => format!("{device:?}"),
+            Imp::Other(imp) => imp.name(),
         }
     }
 
@@ -223,14 +203,7 @@ impl Network {
         }
         match &self.imp {
             Imp::Engine(engine) => render_with(engine.as_ref(), variant, clean, depth, style, opts),
-            Imp::Burn { generator, device } => render_with(
-                &BurnForward { generator, device },
-                variant,
-                clean,
-                depth,
-                style,
-                opts,
-            ),
+            Imp::Other(imp) => render_with(imp.as_ref(), variant, clean, depth, style, opts),
         }
     }
 

@@ -75,7 +75,7 @@
 //!   whatever the weights (the training notes found that a network fed depth learns to ignore
 //!   it, since in self-reconstruction the light field already shows the target's haze). In
 //!   training the reference is the target, the same scene, so the reference's mean depth is the
-//!   crop's own and only the within-image part acts ([`finish_tensor`]).
+//!   crop's own and only the within-image part acts (`uwnr-train`'s tensor form of [`finish`]).
 //! - The water's parameters come from the reference ([`estimate_water`]): `B` by the quadtree
 //!   search of Hou et al. (the UISA baseline's), `beta` per channel from how much contrast the
 //!   reference keeps: `t_c(d_ref) = clamp(std_c / AIR_CONTRAST, MIN_TRANSMISSION, 1)`, where
@@ -84,9 +84,6 @@
 //!   clear one a weak one. This is a one-image heuristic, not a fit; it is what makes the depth
 //!   response follow the reference.
 
-use burn::tensor::module::conv2d;
-use burn::tensor::ops::ConvOptions;
-use burn::tensor::{Tensor, TensorData};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use uwnr_baselines::reinhard::{ChannelStats, reference_stats, transfer_to_stats};
@@ -654,7 +651,7 @@ pub fn gaussian_kernel(sigma: f64, radius: usize) -> Vec<f64> {
 
 /// For a signal of length `n`, the kernel mass that falls inside it at each position: the
 /// normaliser of a zero-padded convolution.
-fn inside_mass(kernel: &[f64], n: usize) -> Vec<f64> {
+pub fn inside_mass(kernel: &[f64], n: usize) -> Vec<f64> {
     let r = (kernel.len() / 2) as i64;
     (0..n as i64)
         .map(|i| {
@@ -667,46 +664,14 @@ fn inside_mass(kernel: &[f64], n: usize) -> Vec<f64> {
 }
 
 /// Radius of the blur of `sigma` along an axis of `n` pixels.
-fn blur_radius(sigma: f64, n: usize) -> usize {
+pub fn blur_radius(sigma: f64, n: usize) -> usize {
     ((BLUR_TRUNCATE_SIGMAS * sigma).ceil() as usize).min(n.saturating_sub(1))
 }
 
-/// Gaussian blur of every channel, separable, with the kernel truncated at
+/// Gaussian blur of one `h x w` plane, in place, with the kernel truncated at
 /// [`BLUR_TRUNCATE_SIGMAS`] sigmas (and at the image size) and renormalised over the part
-/// inside the image at the borders (normalised convolution): a constant image stays constant.
-///
-/// # Shapes
-/// - `x`: `[b, c, h, w]`; output: `[b, c, h, w]`
-pub fn gaussian_blur(x: Tensor<4>, sigma: f64) -> Tensor<4> {
-    let [_, c, h, w] = x.dims();
-    let device = x.device();
-    let (rx, ry) = (blur_radius(sigma, w), blur_radius(sigma, h));
-    let (kx, ky) = (gaussian_kernel(sigma, rx), gaussian_kernel(sigma, ry));
-    let weight = |k: &[f64], shape: [usize; 4]| {
-        let data: Vec<f32> = (0..c).flat_map(|_| k.iter().map(|&v| v as f32)).collect();
-        Tensor::<4>::from_data(TensorData::new(data, shape), &device)
-    };
-    let horiz = conv2d(
-        x,
-        weight(&kx, [c, 1, 1, kx.len()]),
-        None,
-        ConvOptions::new([1, 1], [0, rx], [1, 1], c),
-    ); // [b, c, h, w]
-    let blurred = conv2d(
-        horiz,
-        weight(&ky, [c, 1, ky.len(), 1]),
-        None,
-        ConvOptions::new([1, 1], [ry, 0], [1, 1], c),
-    ); // [b, c, h, w]
-    let (mx, my) = (inside_mass(&kx, w), inside_mass(&ky, h));
-    let norm: Vec<f32> = my
-        .iter()
-        .flat_map(|&a| mx.iter().map(move |&b| (a * b) as f32))
-        .collect();
-    blurred / Tensor::<4>::from_data(TensorData::new(norm, [1, 1, h, w]), &device)
-}
-
-/// [`gaussian_blur`] of one `h x w` plane, in place; rows in parallel.
+/// inside the image at the borders (normalised convolution): a constant plane stays constant.
+/// Rows in parallel. The training wing's tensor blur (`uwnr-train`) is the same operation.
 fn blur_plane(p: &mut [f32], w: usize, h: usize, sigma: f64) {
     let (rx, ry) = (blur_radius(sigma, w), blur_radius(sigma, h));
     let (kx, ky) = (gaussian_kernel(sigma, rx), gaussian_kernel(sigma, ry));
@@ -854,33 +819,6 @@ fn depth_stage(
     }
     out.clamp01();
     Ok(out)
-}
-
-/// [`finish`] on a batch, differentiable (training), with each sample's reference at the
-/// sample's own mean depth: in self-reconstruction the reference is the target, the same scene,
-/// so only the within-image part of the depth response acts.
-///
-/// # Shapes
-/// - `raw`: `[b, 6, h, w]`; `anchor`: `[b, 3, h, w]`; `depth`: `[b, 1, h, w]`;
-///   `veil`, `beta`: `[b, 3, 1, 1]`; output `[b, 3, h, w]`, not clamped (the loss sees the
-///   unclamped values so that gradients flow everywhere)
-pub fn finish_tensor(
-    raw: Tensor<4>,
-    anchor: Tensor<4>,
-    depth: Tensor<4>,
-    veil: Tensor<4>,
-    beta: Tensor<4>,
-) -> Tensor<4> {
-    let [b, _, h, w] = raw.dims();
-    let fields = gaussian_blur(raw, SMOOTH_SIGMA);
-    let g = fields.clone().slice([0..b, 0..3, 0..h, 0..w]);
-    let o = fields.slice([0..b, 3..6, 0..h, 0..w]);
-    let n = anchor * (g + 1.0) + o;
-    let m = depth.clone().mean_dim(3).mean_dim(2); // [b, 1, 1, 1]
-    let factor = (beta.neg() * ((depth - m) * LOCAL_DEPTH_STRENGTH))
-        .exp()
-        .clamp_max(MAX_GAIN); // [b, 3, h, w]
-    (n - veil.clone()) * factor + veil
 }
 
 #[cfg(test)]

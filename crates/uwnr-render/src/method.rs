@@ -136,17 +136,16 @@ pub enum Precision {
     Bf16,
 }
 
-/// What runs a network.
+/// What runs a network. Renders run on uwnr's CPU inference engine (the UWNR generator on
+/// `uwnr-engine`, the GAN's small generator in plain Rust); the training framework's devices
+/// (`flex`, `tch`) are the training wing's. The field stays in specs and dataset records, which
+/// name it.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum ComputeDevice {
-    /// uwnr's CPU inference engine (the GAN, which runs on burn, takes it as flex).
+    /// uwnr's CPU inference engine.
     #[default]
     Engine,
-    /// burn's pure-Rust CPU backend.
-    Flex,
-    /// libtorch through burn (builds with the `tch` feature).
-    Tch,
 }
 
 impl ComputeDevice {
@@ -155,8 +154,6 @@ impl ComputeDevice {
     pub const fn name(self) -> &'static str {
         match self {
             Self::Engine => uwnr_model::ENGINE_NAME,
-            Self::Flex => "flex",
-            Self::Tch => "tch",
         }
     }
 }
@@ -213,7 +210,7 @@ impl UwnrSpec {
 pub struct UwganSpec {
     /// A generator (`generator.safetensors` of `uwnr gan train`); `None`: the bundled one.
     pub weights: Option<PathBuf>,
-    /// What runs it (burn: the engine's name means flex here).
+    /// What runs it.
     pub device: ComputeDevice,
 }
 
@@ -388,12 +385,6 @@ impl MethodSpec {
                 s.render_options()
                     .validate()
                     .map_err(|e| RenderError::Invalid(e.to_string()))?;
-                if s.precision == Precision::Bf16 && s.device != ComputeDevice::Engine {
-                    return Err(RenderError::Invalid(format!(
-                        "bf16 precision runs on the engine only, not on {}",
-                        s.device.name()
-                    )));
-                }
                 Ok(())
             }
             Self::Haze(p) => p.validate(),
@@ -505,18 +496,7 @@ mod tests {
     }
 
     #[test]
-    fn bf16_off_the_engine_and_bad_tiling_are_refused() {
-        let spec = MethodSpec::Uwnr(UwnrSpec {
-            precision: Precision::Bf16,
-            device: ComputeDevice::Flex,
-            ..UwnrSpec::default()
-        });
-        assert!(
-            spec.validate()
-                .unwrap_err()
-                .to_string()
-                .contains("engine only")
-        );
+    fn bad_tiling_is_refused() {
         let spec = MethodSpec::Uwnr(UwnrSpec {
             tile: 100,
             ..UwnrSpec::default()

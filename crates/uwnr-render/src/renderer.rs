@@ -18,7 +18,7 @@ use crate::record::{GanRecord, NetworkRecord, depth_record, fingerprint};
 
 /// The UWNR network, loaded.
 struct Network {
-    /// Cloned once per worker (the engine's weights are shared, burn's module copied).
+    /// Cloned once per worker (the engine's weights are shared).
     generator: Mutex<uwnr_model::Network>,
     config: GeneratorConfig,
     options: RenderOptions,
@@ -34,7 +34,6 @@ struct Gan {
     /// Cloned once per worker.
     generator: Mutex<uwnr_gan::Generator>,
     config: uwnr_gan::GeneratorConfig,
-    device: uwnr_model::Device,
     weights: String,
     fingerprint: String,
 }
@@ -378,9 +377,8 @@ impl Worker<'_> {
                 Ok(Rendered { image, params })
             }
             WorkerImp::Uwgan { generator, gan } => {
-                let (image, v) =
-                    uwnr_gan::render_with_values(generator, clean, depth, seed, &gan.device)
-                        .map_err(|e| failed("rendering with uwgan", e))?;
+                let (image, v) = uwnr_gan::render_with_values(generator, clean, depth, seed)
+                    .map_err(|e| failed("rendering with uwgan", e))?;
                 Ok(Rendered {
                     image,
                     params: json!({
@@ -433,18 +431,11 @@ fn failed(context: &str, e: impl std::fmt::Display) -> RenderError {
     }
 }
 
-/// What runs the network: the engine (at `precision`) or burn on the named device.
-fn backend(device: ComputeDevice, precision: Precision) -> Result<Backend> {
+/// What runs the network: the engine, at `precision`.
+fn backend(device: ComputeDevice, precision: Precision) -> Backend {
     match (device, precision) {
-        (ComputeDevice::Engine, Precision::F32) => Ok(Backend::Engine),
-        (ComputeDevice::Engine, Precision::Bf16) => Ok(Backend::EngineBf16),
-        (d, Precision::F32) => {
-            uwnr_model::backend_from_name(d.name()).map_err(|e| RenderError::Invalid(e.to_string()))
-        }
-        (d, Precision::Bf16) => Err(RenderError::Invalid(format!(
-            "bf16 precision runs on the engine only, not on {}",
-            d.name()
-        ))),
+        (ComputeDevice::Engine, Precision::F32) => Backend::Engine,
+        (ComputeDevice::Engine, Precision::Bf16) => Backend::EngineBf16,
     }
 }
 
@@ -459,7 +450,7 @@ fn weights_error(source: &str, e: impl std::fmt::Display) -> RenderError {
 }
 
 fn load_network(s: &UwnrSpec) -> Result<Network> {
-    let backend = backend(s.device, s.precision)?;
+    let backend = backend(s.device, s.precision);
     let (network, bytes, weights) = match &s.weights {
         Some(path) => {
             let source = path.display().to_string();
@@ -492,19 +483,11 @@ fn read(path: &Path, source: &str) -> Result<Vec<u8>> {
 }
 
 fn load_gan(s: &UwganSpec) -> Result<Gan> {
-    // The generator runs on burn: the engine's name means burn's CPU backend here.
-    let name = match s.device {
-        ComputeDevice::Engine | ComputeDevice::Flex => "flex",
-        ComputeDevice::Tch => "tch",
-    };
-    let device =
-        uwnr_model::device_from_name(name).map_err(|e| RenderError::Invalid(e.to_string()))?;
-    let (generator, bytes, weights) = uwnr_gan::generator_or_bundled(s.weights.as_deref(), &device)
+    let (generator, bytes, weights) = uwnr_gan::generator_or_bundled(s.weights.as_deref())
         .map_err(|e| failed("loading the UWGAN generator", e))?;
     Ok(Gan {
         config: generator.config.clone(),
         generator: Mutex::new(generator),
-        device,
         fingerprint: fingerprint(&bytes),
         weights,
     })
@@ -516,8 +499,10 @@ mod tests {
 
     fn tiny_network(backend: &Backend) -> uwnr_model::Network {
         let config = GeneratorConfig::with_base_width(8);
-        let generator = config.init(&uwnr_model::Device::flex()).unwrap();
-        uwnr_model::Network::from_generator(&generator, &config, backend).unwrap()
+        let tensors = uwnr_model::weights::keys::seeded_tensors(&config, 1);
+        uwnr_model::Network::from_tensors(&config, tensors, backend)
+            .unwrap()
+            .0
     }
 
     #[test]

@@ -14,12 +14,14 @@
 //! - [`loader`]: the prefetching batch thread, which keeps a panic's cause;
 //! - [`settings`]: the run-level settings every trainer's config holds ([`RunSettings`]: seed,
 //!   logging, validation, checkpoint and prefetch cadence), checked and scheduled once;
+//! - [`device`]: the burn devices, by name;
 //! - [`learner`]: the loop ([`train`]), with step and time checkpoint intervals and a clean stop.
 //!
 //! burn appears only where a network is saved, loaded or seeded.
 
 pub mod checkpoint;
 pub mod csvlog;
+pub mod device;
 pub mod error;
 pub mod folder;
 pub mod learner;
@@ -29,6 +31,7 @@ pub mod plan;
 pub mod plot;
 pub mod settings;
 
+pub use device::{Device, UnknownDevice, device_from_name, device_names};
 pub use error::{Result, RunError};
 pub use learner::{
     Event, Prepared, Schedule, Scores, Session, Summary, Task, TrainOptions, ValResult,

@@ -14,7 +14,8 @@ use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::sync::Arc;
-use uwnr_model::{Device, GeneratorConfig, device_from_name};
+use uwnr_model::GeneratorConfig;
+use uwnr_train::{Device, GeneratorInit, device_from_name};
 
 use uwnr_core::Image;
 use uwnr_train::data::PairData;

@@ -1,7 +1,11 @@
-//! uwnr-train: training of the UWNR generator (Ye et al., "Underwater Light Field Retention:
-//! Neural Rendering for Underwater Imaging", CVPR-W 2022) in burn, as a task of uwnr-run's
-//! training loop.
+//! uwnr-train: the UWNR generator (Ye et al., "Underwater Light Field Retention: Neural
+//! Rendering for Underwater Imaging", CVPR-W 2022) in burn and its training, as a task of
+//! uwnr-run's training loop. The training wing: rendering (`uwnr-model`) needs none of it.
 //!
+//! - [`generator`]: the MHB-Unet as burn's module ([`GeneratorInit::init`] builds it from
+//!   `uwnr_model`'s config); [`burn_weights`]: it loaded from and saved to the authors' keys;
+//!   [`burn_render`]: it rendering through `uwnr_model`'s tiling ([`network_from_generator`]);
+//!   [`burn_style`]: the render's blur and finish on tensors, for the losses;
 //! - [`config::TrainConfig`]: the run's settings; `Default` is the paper's recipe;
 //! - [`data`]: paired folders with depth, computed once;
 //! - [`augment`], [`loader`]: crops, flips, rotations, colour casts and the light field of each
@@ -16,7 +20,7 @@
 //! use uwnr_train::{TrainConfig, TrainOptions, train};
 //! # fn main() -> Result<(), uwnr_train::TrainError> {
 //! let cfg = TrainConfig::default();
-//! let opts = TrainOptions::new(vec!["data/uieb".into()], "runs/uieb".into(), uwnr_model::Device::flex());
+//! let opts = TrainOptions::new(vec!["data/uieb".into()], "runs/uieb".into(), uwnr_train::Device::flex());
 //! let summary = train(&cfg, &opts, &AtomicBool::new(false), &mut |_event| {})?;
 //! println!("{} steps", summary.step);
 //! # Ok(())
@@ -24,20 +28,32 @@
 //! ```
 
 pub mod augment;
+pub mod burn_render;
+pub mod burn_style;
+pub mod burn_weights;
 pub mod config;
 pub mod data;
 pub mod error;
+pub mod generator;
 pub mod loader;
 pub mod losses;
 pub mod trainer;
 pub mod vgg;
 
+pub use burn_render::{BurnForward, RenderOn, network_from_generator};
+pub use burn_weights::{
+    generator_from_tensors, generator_to_tensors, load_generator, load_generator_from_bytes,
+    read_tensor, save_generator,
+};
 pub use config::{
     AugmentConfig, ColorCast, LightFieldLoss, LossWeights, PerceptualFallback, SmallImagePolicy,
     TrainConfig,
 };
 pub use error::{Result, TrainError};
+pub use generator::{ChannelMeans, Generator, GeneratorInit};
 pub use losses::{Criterion, LossValues};
 pub use trainer::{GENERATOR_FILE, TrainOptions, TrainSummary, train, train_step};
-pub use uwnr_run::{Event, RunSettings, ValResult, init_seeded};
+pub use uwnr_run::{
+    Device, Event, RunSettings, ValResult, device_from_name, device_names, init_seeded,
+};
 pub use vgg::Vgg19Features;

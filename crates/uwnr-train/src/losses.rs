@@ -71,7 +71,8 @@ pub fn dark_channel_loss(out: Tensor<4>, target: Tensor<4>, window: usize) -> Te
     l1(dark_channel(out, window), dark_channel(target, window))
 }
 
-pub use uwnr_model::style::{gaussian_blur, gaussian_kernel};
+pub use crate::burn_style::gaussian_blur;
+pub use uwnr_model::style::gaussian_kernel;
 
 /// The paper's light-field map of a batch (Eq. 2-3 and the loss's `LF`), with the released
 /// map's geometry: the image is shrunk by [`LF_POOL`] (average pooling), blurred with

@@ -12,12 +12,9 @@ use std::sync::atomic::AtomicBool;
 use burn::optim::{AdamWConfig, GradientsParams, ModuleOptimizer};
 use burn::tensor::{Device, Tensor, TensorData};
 use uwnr_core::lightfield;
-use uwnr_model::style::{estimate_water_for, finish_tensor};
+use uwnr_model::style::estimate_water_for;
 use uwnr_model::weights::SOURCE_METADATA_KEY;
-use uwnr_model::{
-    Backend, Generator, Network, ReferenceStyle, RenderOptions, Variant, WeightsDtype,
-    save_generator,
-};
+use uwnr_model::{Backend, ReferenceStyle, RenderOptions, Variant, WeightsDtype};
 /// Where and how to train (what is not part of the run's config).
 pub use uwnr_run::TrainOptions;
 use uwnr_run::checkpoint::RunState;
@@ -25,9 +22,13 @@ use uwnr_run::folder::{check_run_folder, check_saved_config};
 use uwnr_run::{Event, Prepared, Schedule, Scores, Task};
 
 use crate::augment::{TARGET_CHANNELS, WATER_VALUES};
+use crate::burn_render::{RenderOn, network_from_generator};
+use crate::burn_style::finish_tensor;
+use crate::burn_weights::save_generator;
 use crate::config::TrainConfig;
 use crate::data::{LoadOptions, TrainData, ValPair, load_data};
 use crate::error::{Result, TrainError};
+use crate::generator::{Generator, GeneratorInit};
 use crate::loader::{Batch, BatchSpec};
 use crate::losses::{Criterion, LossValues, read_terms};
 use crate::vgg::Vgg19Features;
@@ -247,7 +248,7 @@ impl Task for UwnrTask<'_> {
 
     /// Renders each validation pair with the inference engine, as `uwnr render` does by default.
     fn validate(&self, model: &Generator, sheet_rows: usize) -> Result<Scores> {
-        let g = Network::from_generator(model, &self.cfg.model, &Backend::Engine)?;
+        let g = network_from_generator(model, &self.cfg.model, &RenderOn::Engine(Backend::Engine))?;
         let opts = RenderOptions::default();
         let mut scores = Scores::default();
         for (v, style) in self.val.iter().zip(&self.val_styles) {

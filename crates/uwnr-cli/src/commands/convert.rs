@@ -6,14 +6,16 @@ use std::process::ExitCode;
 
 use anyhow::{Context, Result};
 use uwnr_model::weights::SOURCE_METADATA_KEY;
-use uwnr_model::{WeightsDtype, save_generator};
+use uwnr_model::{WeightsDtype, save_weights};
 
 use crate::cli::{ConvertArgs, DtypeArg};
 
 pub fn run(a: &ConvertArgs) -> Result<ExitCode> {
-    let device = super::device(crate::cli::DeviceArg::Flex)?;
-    let (generator, config, info) = uwnr_model::load_generator(&a.input, &device)
-        .with_context(|| format!("loading weights {}", a.input.display()))?;
+    let (loaded, _) = super::load_model(Some(&a.input))?;
+    let (config, info) = (loaded.config, loaded.info);
+    let mut tensors = loaded.tensors;
+    // The full key set, as the authors' `load_state_dict` expects it.
+    uwnr_model::weights::keys::add_unused_norms(&config, &mut tensors);
     let source = a
         .source
         .clone()
@@ -29,7 +31,7 @@ pub fn run(a: &ConvertArgs) -> Result<ExitCode> {
         DtypeArg::F16 => WeightsDtype::F16,
         DtypeArg::Bf16 => WeightsDtype::Bf16,
     };
-    save_generator(&generator, &config, &a.output, dtype, &metadata)
+    save_weights(&tensors, &config, &a.output, dtype, &metadata)
         .with_context(|| format!("writing {}", a.output.display()))?;
     let size = std::fs::metadata(&a.output).map(|m| m.len()).unwrap_or(0);
     eprintln!(

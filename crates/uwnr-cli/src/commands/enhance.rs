@@ -12,7 +12,7 @@ use anyhow::{Context, Result, bail};
 use serde_json::json;
 use uwnr_core::io::{DecodeLimits, is_image_path, load_rgb, save_rgb, write_atomic};
 use uwnr_enhance::{EnhanceTrainConfig, EnhanceTrainOptions, EvalReport, ShallowUwnet};
-use uwnr_model::Device;
+use uwnr_train::Device;
 
 use super::training;
 use crate::cli::{

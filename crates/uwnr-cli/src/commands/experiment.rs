@@ -9,7 +9,9 @@ use uwnr_experiment::{DownstreamSpec, Event, ExperimentError, TrainingSet};
 use uwnr_render::MethodKind;
 use uwnr_run::Event as RunEvent;
 
-use crate::cli::{DownstreamArgs, ExperimentAction, ExperimentArgs, ModelOpts, PrecisionArg};
+use crate::cli::{
+    DeviceArg, DownstreamArgs, ExperimentAction, ExperimentArgs, ModelOpts, PrecisionArg,
+};
 
 /// Enhancer crop side when no --enhance-config is given.
 const DEFAULT_CROP: usize = 128;
@@ -32,6 +34,8 @@ fn training_sets(a: &DownstreamArgs) -> Result<Vec<TrainingSet>> {
             } else {
                 a.model.weights.clone()
             },
+            // Renders run on the engine; --device is where the enhancers train.
+            device: DeviceArg::Engine,
             ..a.model.clone()
         };
         sets.push(TrainingSet {

@@ -1,4 +1,4 @@
-//! `uwnr gan`: the UWGAN-style GAN baseline (library: `uwnr_gan`).
+//! `uwnr gan`: the UWGAN-style GAN baseline (library: `uwnr_gan_train`).
 //!
 //! - `gan train`: unpaired adversarial training, with exact resume; rendering with the trained
 //!   generator is `uwnr render --method uwgan` (and `uwnr dataset --method uwgan`).
@@ -6,7 +6,7 @@
 use std::process::ExitCode;
 
 use anyhow::{Context, Result};
-use uwnr_gan::{GanLoss, GanTrainConfig, TrainOptions};
+use uwnr_gan_train::{GanLoss, GanTrainConfig, TrainOptions};
 
 use super::training;
 use crate::cli::{GanAction, GanArgs, GanLossArg, GanTrainArgs};
@@ -34,7 +34,7 @@ fn train(a: &GanTrainArgs) -> Result<ExitCode> {
 
     let stop = training::stop_flag()?;
     let bar = training::progress();
-    let summary = uwnr_gan::train(&cfg, &opts, &a.references, &stop, &mut |e| {
+    let summary = uwnr_gan_train::train(&cfg, &opts, &a.references, &stop, &mut |e| {
         training::show_scored(&bar, e, ["colour-moment PSNR", "SSIM to clean"]);
     })
     .with_context(|| format!("training run {}", c.run.display()))?;

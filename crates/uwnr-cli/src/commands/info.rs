@@ -11,8 +11,7 @@ pub fn run(a: &InfoArgs) -> Result<ExitCode> {
     let (w, h) = a.size;
     let have_weights = a.weights.is_some() || super::bundled_weights().is_some();
     let (config, source) = if have_weights {
-        let device = super::device(crate::cli::DeviceArg::Flex)?;
-        let (_g, config, info, source) = super::load_model(a.weights.as_deref(), &device)?;
+        let (config, info, source) = super::model_facts(a.weights.as_deref())?;
         println!("weights:     {source}");
         println!("format:      {:?}, {:?}", info.format, info.dtype);
         for (k, v) in &info.metadata {

@@ -113,15 +113,15 @@ pub fn method_spec(
         }
         _ => MethodSpec::defaults(kind, have_reference),
     };
+    if kind.loads_weights() && model.device != DeviceArg::Engine {
+        bail!(
+            "renders run on the engine (uwnr-engine): --device flex|tch chooses where training runs \
+             (uwnr train, enhance, gan, experiment); drop it here"
+        );
+    }
     match &mut spec {
         MethodSpec::Uwnr(s) => {
-            if precision == PrecisionArg::Bf16 && model.device != DeviceArg::Engine {
-                bail!(
-                    "--precision bf16 runs on the engine only: drop --device or pass --precision f32"
-                );
-            }
             s.weights.clone_from(&model.weights);
-            s.device = model.device.into();
             s.precision = precision.into();
             s.max_whole_pixels = model.max_whole_pixels;
             s.tile = model.tile;
@@ -134,7 +134,6 @@ pub fn method_spec(
                 );
             }
             s.weights.clone_from(&model.weights);
-            s.device = model.device.into();
         }
         MethodSpec::Jerlov(p) => {
             if let Some(t) = o.water_type {

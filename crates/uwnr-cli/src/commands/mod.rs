@@ -3,17 +3,23 @@
 mod convert;
 mod dataset;
 mod depth;
+#[cfg(feature = "train")]
 mod enhance;
 mod eval;
+#[cfg(feature = "train")]
 mod experiment;
+#[cfg(feature = "train")]
 mod gan;
 mod info;
 mod lightfield;
 mod method;
 mod render;
 mod serve;
+#[cfg(feature = "train")]
 mod train;
+#[cfg(feature = "train")]
 mod training;
+#[cfg(feature = "train")]
 mod water;
 
 use std::path::Path;
@@ -25,9 +31,11 @@ use indicatif::{ProgressBar, ProgressStyle};
 
 use anyhow::{Context, Result, bail};
 use uwnr_depth::DepthSource;
-use uwnr_model::{Device, Generator, GeneratorConfig, WeightsInfo};
+use uwnr_model::{GeneratorConfig, LoadedWeights, WeightsInfo};
 
-use crate::cli::{Cli, Command, DepthOpts, DeviceArg};
+#[cfg(feature = "train")]
+use crate::cli::DeviceArg;
+use crate::cli::{Cli, Command, DepthOpts};
 
 /// Runs the parsed command line.
 pub fn run(cli: Cli) -> Result<ExitCode> {
@@ -37,25 +45,31 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
         Command::Depth(a) => depth::run(&a),
         Command::Info(a) => info::run(&a),
         Command::Convert(a) => convert::run(&a),
+        #[cfg(feature = "train")]
         Command::Train(a) => train::run(&a),
         Command::Eval(a) => eval::run(&a),
         Command::Dataset(a) => dataset::run(&a),
+        #[cfg(feature = "train")]
         Command::Experiment(a) => experiment::run(&a),
+        #[cfg(feature = "train")]
         Command::Enhance(a) => enhance::run(&a),
+        #[cfg(feature = "train")]
         Command::Gan(a) => gan::run(&a),
         Command::Serve(a) => serve::run(&a),
+        #[cfg(feature = "train")]
         Command::Water(a) => water::run(&a),
     }
 }
 
-/// The burn device named on the command line (`engine` is an inference engine, not a burn
-/// device: what burn runs beside it, such as training, runs on flex).
-pub fn device(arg: DeviceArg) -> Result<Device> {
+/// The burn device training runs on, named on the command line (`engine` is the render
+/// engine, not a burn device: what burn runs beside it, such as training, runs on flex).
+#[cfg(feature = "train")]
+pub fn device(arg: DeviceArg) -> Result<uwnr_train::Device> {
     let name = match arg {
         DeviceArg::Engine | DeviceArg::Flex => "flex",
         DeviceArg::Tch => "tch",
     };
-    uwnr_model::device_from_name(name).with_context(|| format!("selecting device {name:?}"))
+    uwnr_train::device_from_name(name).with_context(|| format!("selecting device {name:?}"))
 }
 
 /// Weights of the model shipped inside this binary (`uwnr_model::bundled_weights`).
@@ -63,26 +77,37 @@ pub fn bundled_weights() -> Option<&'static [u8]> {
     uwnr_model::bundled_weights()
 }
 
-/// Loads the generator from `--weights`, or the bundled model.
-pub fn load_model(
-    weights: Option<&Path>,
-    device: &Device,
-) -> Result<(Generator, GeneratorConfig, WeightsInfo, String)> {
-    if let Some(path) = weights {
-        let (g, c, i) = uwnr_model::load_generator(path, device)
-            .with_context(|| format!("loading weights {}", path.display()))?;
-        return Ok((g, c, i, path.display().to_string()));
-    }
-    match bundled_weights() {
-        Some(bytes) => {
-            let (g, c, i) = uwnr_model::load_generator_from_bytes(bytes, device)
-                .context("loading the bundled model")?;
-            Ok((g, c, i, uwnr_model::BUNDLED_MODEL_NAME.to_string()))
-        }
-        None => bail!(
-            "this build has no bundled model: pass --weights FILE (safetensors or the authors' checkpoint)"
+/// Reads the generator's weights from `--weights`, or the bundled model, and checks that they
+/// build the network (every key and shape, as a render would); returns them with where they
+/// came from.
+pub fn load_model(weights: Option<&Path>) -> Result<(LoadedWeights, String)> {
+    let (loaded, source) = match weights {
+        Some(path) => (
+            uwnr_model::read_weights(path)
+                .with_context(|| format!("loading weights {}", path.display()))?,
+            path.display().to_string(),
         ),
-    }
+        None => match bundled_weights() {
+            Some(bytes) => (
+                uwnr_model::read_weights_from_bytes(bytes).context("loading the bundled model")?,
+                uwnr_model::BUNDLED_MODEL_NAME.to_string(),
+            ),
+            None => bail!(
+                "this build has no bundled model: pass --weights FILE (safetensors or the authors' checkpoint)"
+            ),
+        },
+    };
+    let (_, ignored) = uwnr_model::weights::engine_weights(&loaded.config, loaded.tensors.clone())
+        .with_context(|| format!("loading weights {source}"))?;
+    let mut loaded = loaded;
+    loaded.info.ignored_keys = ignored;
+    Ok((loaded, source))
+}
+
+/// The config and facts of [`load_model`]'s weights.
+pub fn model_facts(weights: Option<&Path>) -> Result<(GeneratorConfig, WeightsInfo, String)> {
+    let (loaded, source) = load_model(weights)?;
+    Ok((loaded.config, loaded.info, source))
 }
 
 /// The depth source chosen by the depth options.

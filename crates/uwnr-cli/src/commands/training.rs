@@ -7,7 +7,7 @@ use std::sync::atomic::AtomicBool;
 use anyhow::{Context, Result, bail};
 use indicatif::ProgressBar;
 use uwnr_enhance::EnhanceTrainConfig;
-use uwnr_gan::GanTrainConfig;
+use uwnr_gan_train::GanTrainConfig;
 use uwnr_run::Event;
 use uwnr_run::folder::{CONFIG_FILE, RunConfig};
 use uwnr_train::TrainConfig;

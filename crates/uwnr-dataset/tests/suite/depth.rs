@@ -9,15 +9,16 @@ use uwnr_core::Image;
 use uwnr_core::io::{save_gray16, save_rgb};
 use uwnr_dataset::{DepthPolicy, Renderer, Size};
 use uwnr_depth::DepthUnit;
-use uwnr_model::{Backend, Device, GeneratorConfig, Network, RenderOptions};
+use uwnr_model::weights::keys::seeded_tensors;
+use uwnr_model::{Backend, GeneratorConfig, Network, RenderOptions};
 
 use crate::common::{assert_same_tree, opts, run, spec, texture};
 
 /// A fresh anchored network (its output is the anchor, then the depth stage).
 fn network() -> Renderer {
     let config = GeneratorConfig::anchored(8);
-    let generator = config.init(&Device::flex()).unwrap();
-    let net = Network::from_generator(&generator, &config, &Backend::Engine).unwrap();
+    let (net, _) =
+        Network::from_tensors(&config, seeded_tensors(&config, 1), &Backend::Engine).unwrap();
     Renderer::network(net, RenderOptions::default(), "fresh".into(), b"fresh")
 }
 

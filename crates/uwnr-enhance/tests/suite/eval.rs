@@ -3,8 +3,8 @@
 
 use uwnr_core::io::{DecodeLimits, load_rgb};
 use uwnr_enhance::{EnhanceError, ShallowUwnetConfig, evaluate_dir};
-use uwnr_model::Device;
 use uwnr_run::RunError;
+use uwnr_train::Device;
 
 use crate::common::make_dir;
 

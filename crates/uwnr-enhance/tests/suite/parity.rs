@@ -17,7 +17,7 @@ fn fixture(name: &str) -> PathBuf {
 }
 
 fn device() -> Device {
-    uwnr_model::device_from_name("flex").unwrap()
+    uwnr_train::device_from_name("flex").unwrap()
 }
 
 fn io() -> (Vec<f32>, Vec<f32>) {

@@ -10,8 +10,8 @@ use uwnr_enhance::{
     EnhanceError, EnhanceTrainConfig, EnhanceTrainOptions, EnhanceTrainSummary, ShallowUwnetConfig,
     train,
 };
-use uwnr_model::Device;
 use uwnr_run::{Event, RunError, RunSettings};
+use uwnr_train::Device;
 
 use crate::common::make_dir;
 

@@ -1,14 +1,13 @@
 //! The containers weights come in, read and written: safetensors (any float dtype, with its
 //! `__metadata__`) and PyTorch `torch.save` checkpoints (zip or legacy pickle, read through
-//! burn's reader, the state dict bare or nested under the authors' `G1`), told apart by their
-//! first bytes. Every tensor is decoded to f32 under its key, the DDP `module.` prefix stripped.
+//! the `pytorch-reader` crate, which needs neither PyTorch nor burn; the state dict bare or
+//! nested under the authors' `G1`), told apart by their first bytes. Every tensor is decoded to f32 under its key, the DDP `module.` prefix stripped.
 
 use std::collections::{BTreeMap, HashMap};
 use std::path::Path;
 
-use burn::store::pytorch::PytorchError;
-use burn::store::pytorch::PytorchReader;
-use burn::store::pytorch_reader::DType as TorchDType;
+use pytorch_reader::DType as TorchDType;
+use pytorch_reader::{PytorchError, PytorchReader};
 use safetensors::{Dtype, SafeTensors, tensor::TensorView};
 
 use super::keys::{CHECKPOINT_STATE_KEY, strip_prefix};

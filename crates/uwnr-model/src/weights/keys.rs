@@ -48,7 +48,7 @@ fn stem_prefix(level_prefix: &str) -> String {
 }
 
 /// A convolution's two keys, `prefix.weight` `[cout, cin, k, k]` and `prefix.bias` `[cout]`.
-pub(super) struct ConvKey {
+pub struct ConvKey {
     /// The key without `.weight` / `.bias`.
     pub prefix: String,
     /// Input channels.
@@ -87,7 +87,7 @@ impl ConvKey {
 
 /// The unused affine `InstanceNorm2d(width)` of a block: `prefix.weight` and `prefix.bias`,
 /// both `[width]`.
-pub(super) struct NormKey {
+pub struct NormKey {
     /// The key without `.weight` / `.bias`.
     pub prefix: String,
     /// Channels.
@@ -108,7 +108,7 @@ impl NormKey {
 
 /// The keys of one encoder level `P` of width `c` (`r = c / 4`): the stride-2 conv
 /// `P.mpconv.0` and the block `P.mpconv.2`.
-pub(super) struct DownKeys {
+pub struct DownKeys {
     /// `P.mpconv.0`: conv3x3 stride 2, `cin -> c`.
     pub stem: ConvKey,
     /// `P.mpconv.2.conk3`: conv3x3 `c -> c`.
@@ -128,7 +128,7 @@ pub(super) struct DownKeys {
 }
 
 /// The keys of the encoder levels of `config`, in order.
-pub(super) fn down_keys(config: &GeneratorConfig) -> [DownKeys; LEVELS] {
+pub fn down_keys(config: &GeneratorConfig) -> [DownKeys; LEVELS] {
     std::array::from_fn(|level| {
         let prefix = DOWN_PREFIXES[level];
         let cin = match level {
@@ -156,7 +156,7 @@ pub(super) fn down_keys(config: &GeneratorConfig) -> [DownKeys; LEVELS] {
 
 /// The keys of the decoder levels of `config`, in order: `upK.up.0`, conv3x3 `c -> 2c` at the
 /// width `c` of encoder level `LEVELS - K`.
-pub(super) fn up_keys(config: &GeneratorConfig) -> [ConvKey; LEVELS] {
+pub fn up_keys(config: &GeneratorConfig) -> [ConvKey; LEVELS] {
     std::array::from_fn(|i| {
         let c = config.level_width(LEVELS - 1 - i);
         ConvKey::new(format!("{}.up.0", UP_PREFIXES[i]), c, 2 * c, 3)
@@ -164,7 +164,7 @@ pub(super) fn up_keys(config: &GeneratorConfig) -> [ConvKey; LEVELS] {
 }
 
 /// The output conv `out.0`: conv3x3 `c / 2 -> out_channels`.
-pub(super) fn out_key(config: &GeneratorConfig) -> ConvKey {
+pub fn out_key(config: &GeneratorConfig) -> ConvKey {
     ConvKey::new(
         OUT_PREFIX.to_string(),
         config.decoder_out_width(),
@@ -174,15 +174,12 @@ pub(super) fn out_key(config: &GeneratorConfig) -> ConvKey {
 }
 
 /// `key` without the DistributedDataParallel prefix.
-pub(super) fn strip_prefix(key: &str) -> String {
+pub fn strip_prefix(key: &str) -> String {
     key.strip_prefix(DDP_PREFIX).unwrap_or(key).to_string()
 }
 
 /// `f` applied to each level's item in order, stopping at the first error.
-pub(super) fn map_levels<T, U>(
-    items: [T; LEVELS],
-    f: impl FnMut(T) -> Result<U>,
-) -> Result<[U; LEVELS]> {
+pub fn map_levels<T, U>(items: [T; LEVELS], f: impl FnMut(T) -> Result<U>) -> Result<[U; LEVELS]> {
     let built = items.into_iter().map(f).collect::<Result<Vec<U>>>()?;
     let n = built.len();
     built
@@ -192,7 +189,7 @@ pub(super) fn map_levels<T, U>(
 
 /// Hands out the tensors of a state dict to a mapping, checking each key and shape; what is
 /// left at the end may only be the unused norms.
-pub(super) struct KeySource(TensorMap);
+pub struct KeySource(TensorMap);
 
 impl KeySource {
     pub fn new(tensors: TensorMap) -> Self {
@@ -238,7 +235,7 @@ impl KeySource {
 
 /// The config implied by the shapes of the first and last convs (files without metadata,
 /// e.g. the authors' checkpoints).
-pub(super) fn infer_config(tensors: &TensorMap) -> Result<GeneratorConfig> {
+pub fn infer_config(tensors: &TensorMap) -> Result<GeneratorConfig> {
     let first = weight_key(&stem_prefix(DOWN_PREFIXES[0]));
     let last = weight_key(OUT_PREFIX);
     let get = |key: &str| {
@@ -267,4 +264,83 @@ pub(super) fn infer_config(tensors: &TensorMap) -> Result<GeneratorConfig> {
     };
     config.validate()?;
     Ok(config)
+}
+
+/// Every conv key of `config`, encoder levels first.
+fn conv_keys(config: &GeneratorConfig) -> Vec<ConvKey> {
+    let mut keys = Vec::new();
+    for d in down_keys(config) {
+        keys.extend([
+            d.stem,
+            d.conk3,
+            d.conk1,
+            d.sa_reduce,
+            d.sa_expand,
+            d.ca_reduce,
+            d.ca_expand,
+        ]);
+    }
+    keys.extend(up_keys(config));
+    keys.push(out_key(config));
+    keys
+}
+
+/// A state dict of `config` with small seeded pseudo-random weights (uniform, scaled by
+/// `1/sqrt(fan_in)`, no training framework needed): networks for tests and benchmarks that
+/// need some weights, not trained ones. As a freshly initialised module does, the anchored
+/// variant's output conv is zero (the network starts at its anchor). The unused norms are left
+/// out.
+#[must_use]
+pub fn seeded_tensors(config: &GeneratorConfig, seed: u64) -> TensorMap {
+    // SplitMix64: a fixed, dependency-free stream.
+    let mut state = seed;
+    let mut next = move || {
+        state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = state;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        ((z ^ (z >> 31)) >> 40) as f32 / (1u64 << 24) as f32 * 2.0 - 1.0
+    };
+    let mut map = TensorMap::new();
+    let out = out_key(config).prefix;
+    for key in conv_keys(config) {
+        let shape = key.weight_shape();
+        let scale = if config.variant == Variant::Anchored && key.prefix == out {
+            0.0
+        } else {
+            1.0 / ((key.cin * key.k * key.k) as f32).sqrt()
+        };
+        let n: usize = shape.iter().product();
+        let weight = (0..n).map(|_| next() * scale).collect();
+        let bias = (0..key.cout).map(|_| next() * scale).collect();
+        map.insert(
+            key.weight(),
+            NamedTensor {
+                shape: shape.to_vec(),
+                data: weight,
+            },
+        );
+        map.insert(
+            key.bias(),
+            NamedTensor {
+                shape: vec![key.cout],
+                data: bias,
+            },
+        );
+    }
+    map
+}
+
+/// Adds the unused InstanceNorm keys that `tensors` lacks, at PyTorch's init (weight 1, bias
+/// 0), so that a saved file carries the authors' full key set.
+pub fn add_unused_norms(config: &GeneratorConfig, tensors: &mut TensorMap) {
+    for d in down_keys(config) {
+        let n = d.norm.width;
+        for (key, value) in [(d.norm.weight(), 1.0), (d.norm.bias(), 0.0)] {
+            tensors.entry(key).or_insert_with(|| NamedTensor {
+                shape: vec![n],
+                data: vec![value; n],
+            });
+        }
+    }
 }

@@ -9,25 +9,23 @@
 //! safetensors metadata under [`CONFIG_METADATA_KEY`], so a file alone rebuilds the model.
 //!
 //! By concern: this module holds the types and the entry points; `keys.rs` spells the key
-//! scheme (and the metadata and checkpoint keys) once; `burn_keys.rs` and `engine_keys.rs` map
-//! those keys to burn's module and to the engine's weights, side by side; `format.rs` reads and
+//! scheme (and the metadata and checkpoint keys) once, public so that the training wing maps
+//! them to burn's module (`uwnr-train`'s `burn_weights.rs`); `engine_keys.rs` maps them to the
+//! engine's weights; `format.rs` reads and
 //! writes the containers; `files.rs` writes files atomically and holds checkpoints given as
 //! bytes in a temporary file.
 
-mod burn_keys;
 mod engine_keys;
 mod files;
 mod format;
-mod keys;
+pub mod keys;
 
 use std::collections::BTreeMap;
 use std::io::Read;
 use std::path::Path;
 
-use burn::tensor::Device;
 use serde::{Deserialize, Serialize};
 
-pub use burn_keys::{generator_from_tensors, generator_to_tensors, read_tensor};
 pub use engine_keys::engine_weights;
 use files::{TempFile, write_atomic};
 use format::{detect_format, read_checkpoint_tensors, read_safetensors_tensors, serialize_tensors};
@@ -36,7 +34,6 @@ pub use keys::{CHECKPOINT_STATE_KEY, CONFIG_METADATA_KEY, DDP_PREFIX, SOURCE_MET
 
 use crate::config::GeneratorConfig;
 use crate::error::{ModelError, Result};
-use crate::generator::Generator;
 
 /// Name used in errors for weights given as bytes rather than a file.
 const BYTES_SOURCE: &str = "<in-memory weights>";
@@ -153,50 +150,18 @@ pub fn write_tensor_file(
     write_atomic(path, &bytes)
 }
 
-/// Loads a generator from a weights file: builds the network from the stored (or inferred)
-/// config and assigns every tensor.
-pub fn load_generator(
-    path: &Path,
-    device: &Device,
-) -> Result<(Generator, GeneratorConfig, WeightsInfo)> {
-    build(read_weights(path)?, device)
-}
-
-/// [`load_generator`] for weights held in memory.
-pub fn load_generator_from_bytes(
-    bytes: &[u8],
-    device: &Device,
-) -> Result<(Generator, GeneratorConfig, WeightsInfo)> {
-    build(read_weights_from_bytes(bytes)?, device)
-}
-
-fn build(
-    loaded: LoadedWeights,
-    device: &Device,
-) -> Result<(Generator, GeneratorConfig, WeightsInfo)> {
-    let LoadedWeights {
-        config,
-        tensors,
-        mut info,
-    } = loaded;
-    let (generator, ignored) = generator_from_tensors(&config, tensors, device)?;
-    info.ignored_keys = ignored;
-    Ok((generator, config, info))
-}
-
-/// Saves a generator as safetensors under the authors' keys, with `config` as JSON under
+/// Saves a state dict under the authors' keys as safetensors, with `config` as JSON under
 /// [`CONFIG_METADATA_KEY`] and `metadata` beside it (e.g. [`SOURCE_METADATA_KEY`]). The file
 /// is written to a temporary name in the same directory and renamed into place, so a reader
 /// never sees a partial file.
-pub fn save_generator(
-    generator: &Generator,
+pub fn save_weights(
+    tensors: &TensorMap,
     config: &GeneratorConfig,
     path: &Path,
     dtype: WeightsDtype,
     metadata: &BTreeMap<String, String>,
 ) -> Result<()> {
-    let tensors = generator_to_tensors(generator, config)?;
-    let bytes = serialize_safetensors(&tensors, config, dtype, metadata, path)?;
+    let bytes = serialize_safetensors(tensors, config, dtype, metadata, path)?;
     write_atomic(path, &bytes)
 }
 

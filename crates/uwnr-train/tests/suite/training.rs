@@ -7,10 +7,11 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use uwnr_core::Image;
 use uwnr_core::io::save_rgb;
-use uwnr_model::{Device, GeneratorConfig, read_weights};
+use uwnr_model::{GeneratorConfig, read_weights};
 use uwnr_run::checkpoint::{CHECKPOINTS_DIR, LAST};
 use uwnr_run::pairs::discover_pairs;
 use uwnr_run::{RunError, RunSettings};
+use uwnr_train::Device;
 use uwnr_train::config::{AugmentConfig, ColorCast, LossWeights};
 use uwnr_train::data::{LoadOptions, load_data};
 use uwnr_train::{Event, GENERATOR_FILE, TrainConfig, TrainError, TrainOptions, train};
@@ -144,7 +145,7 @@ fn loss_falls_and_validation_writes_its_outputs() {
     assert_eq!(val_rows.lines().count(), 1 + 2, "{val_rows}");
     assert!(run.join("val").join("step-0000012.png").is_file());
     let best = run.join(CHECKPOINTS_DIR).join("best").join(GENERATOR_FILE);
-    let (g, cfg_back, _) = uwnr_model::load_generator(&best, &Device::flex()).unwrap();
+    let (g, cfg_back, _) = uwnr_train::load_generator(&best, &Device::flex()).unwrap();
     assert_eq!(cfg_back, cfg.model);
     drop(g);
     // 24 steps logged every step.

@@ -7,8 +7,8 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 
 use burn::tensor::Device;
-use uwnr_gan::model::{DiscriminatorConfig, GeneratorConfig};
-use uwnr_gan::{
+use uwnr_gan_train::model::{DiscriminatorConfig, GeneratorConfig};
+use uwnr_gan_train::{
     Event, GanConfig, GanTrainConfig, RunSettings, TrainOptions, load_generator, render,
 };
 
@@ -59,7 +59,7 @@ fn a_few_steps_on_real_rgbd_and_underwater_images() {
     let run = dir.path().join("run");
     let opts = TrainOptions::new(vec![nyu, set5], run.clone(), Device::flex());
     let mut report = String::new();
-    let s = uwnr_gan::train(&cfg, &opts, &[u45], &AtomicBool::new(false), &mut |e| {
+    let s = uwnr_gan_train::train(&cfg, &opts, &[u45], &AtomicBool::new(false), &mut |e| {
         if let Event::Message(m) = e {
             report.push_str(m);
         }

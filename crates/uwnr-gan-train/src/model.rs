@@ -27,98 +27,28 @@ use burn::nn::{
 use burn::tensor::activation::leaky_relu;
 use burn::tensor::module::adaptive_avg_pool2d;
 use burn::tensor::{Device, Tensor, TensorData};
-use rand::{Rng, SeedableRng};
+use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
+pub use uwnr_gan::config::{
+    ENCODER_IN, GeneratorConfig, INIT_STD, LEAKY_SLOPE, PAPER_Z_DIM, draw_z, initial_raw,
+};
+use uwnr_gan::config::{RAW_PARAMS, RGB};
+
 use crate::error::{GanError, Result};
-use crate::imaging::{ImagingConfig, RAW_PARAMS, RGB, WaterParams, initial_raw, render};
+use crate::imaging::{WaterParams, render};
 
-/// Slope of every LeakyReLU (DCGAN's and pix2pix's 0.2).
-pub const LEAKY_SLOPE: f64 = 0.2;
-/// Standard deviation of the N(0, σ) weight init (DCGAN, used by WaterGAN, UWGAN and pix2pix).
-pub const INIT_STD: f64 = 0.02;
-/// Length of the water code `z` in WaterGAN and UWGAN (`z_dim=100`).
-pub const PAPER_Z_DIM: usize = 100;
-/// Kernel of the discriminator's convolutions (pix2pix `kw = 4`).
-pub const DISC_KERNEL: usize = 4;
-/// Widest discriminator layer, in multiples of its base width (pix2pix `min(2**n, 8)`).
-pub const DISC_MAX_MULT: usize = 8;
-/// Input channels of the generator's encoder: RGB + depth.
-const ENCODER_IN: usize = RGB + 1;
-
-/// The parameter generator's architecture.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct GeneratorConfig {
-    /// Length of the water code `z`.
-    pub z_dim: usize,
-    /// Channels of the stride-2 conv3x3 encoder layers.
-    pub widths: Vec<usize>,
-    /// Units of the hidden layer between the pooled feature (+ `z`) and the head.
-    pub hidden: usize,
-    /// Side the clean image and depth are area-averaged to before the encoder.
-    pub encoder_size: usize,
-    /// The imaging layer's fixed settings.
-    pub imaging: ImagingConfig,
-}
-
-impl Default for GeneratorConfig {
-    fn default() -> Self {
-        Self {
-            z_dim: PAPER_Z_DIM,
-            widths: vec![16, 32, 64],
-            hidden: 64,
-            encoder_size: 64,
-            imaging: ImagingConfig::default(),
-        }
-    }
-}
-
-impl GeneratorConfig {
-    /// Checks the config can build a network.
-    pub fn validate(&self) -> Result<()> {
-        let bad =
-            |field: &'static str, reason: String| Err(GanError::InvalidConfig { field, reason });
-        if self.widths.is_empty() || self.widths.contains(&0) {
-            return bad(
-                "generator.widths",
-                format!("{:?}: at least one layer, none empty", self.widths),
-            );
-        }
-        if self.hidden == 0 {
-            return bad("generator.hidden", "must be at least 1".into());
-        }
-        if self.encoder_size < 1 << self.widths.len() {
-            return bad(
-                "generator.encoder_size",
-                format!(
-                    "{} is too small for {} stride-2 layers (at least {})",
-                    self.encoder_size,
-                    self.widths.len(),
-                    1 << self.widths.len()
-                ),
-            );
-        }
-        self.imaging.validate()
-    }
-
-    /// Number of parameters: the encoder's `9·c_in·c_out + c_out` per layer, the hidden layer's
-    /// `(c_last + z_dim + 1)·hidden`, the head's `(hidden + 1)·RAW_PARAMS` (35,003 for the default).
-    #[must_use]
-    pub fn param_count(&self) -> usize {
-        let mut n = 0;
-        let mut cin = ENCODER_IN;
-        for &c in &self.widths {
-            n += 9 * cin * c + c;
-            cin = c;
-        }
-        n + (cin + self.z_dim + 1) * self.hidden + (self.hidden + 1) * RAW_PARAMS
-    }
-
+/// Builds burn's generator from its config (the config lives in the render wing, `uwnr-gan`,
+/// which renders without burn).
+pub trait GeneratorInit {
     /// Builds the generator (weights N(0, 0.02), biases zero, the head's bias at the initial
     /// parameters).
-    pub fn init(&self, device: &Device) -> Result<Generator> {
+    fn init(&self, device: &Device) -> Result<Generator>;
+}
+
+impl GeneratorInit for GeneratorConfig {
+    fn init(&self, device: &Device) -> Result<Generator> {
         self.validate()?;
         let mut encoder = Vec::with_capacity(self.widths.len());
         let mut cin = ENCODER_IN;
@@ -152,6 +82,10 @@ impl GeneratorConfig {
     }
 }
 
+/// Kernel of the discriminator's convolutions (pix2pix `kw = 4`).
+pub const DISC_KERNEL: usize = 4;
+/// Widest discriminator layer, in multiples of its base width (pix2pix `min(2**n, 8)`).
+pub const DISC_MAX_MULT: usize = 8;
 /// The PatchGAN discriminator's architecture.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -388,11 +322,6 @@ pub fn sample_z(seed: u64, b: usize, z_dim: usize, device: &Device) -> Tensor<2>
     Tensor::<2>::from_data(TensorData::new(v, [b, z_dim]), device)
 }
 
-/// `n` values uniform in [−1, 1].
-pub(crate) fn draw_z<R: Rng>(rng: &mut R, n: usize) -> Vec<f32> {
-    (0..n).map(|_| rng.random_range(-1.0_f32..=1.0)).collect()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -406,7 +335,7 @@ mod tests {
                 widths: vec![8, 16],
                 hidden: 16,
                 encoder_size: 16,
-                imaging: ImagingConfig::default(),
+                imaging: uwnr_gan::ImagingConfig::default(),
             },
             discriminator: DiscriminatorConfig {
                 width: 8,
@@ -488,7 +417,7 @@ mod tests {
         g.widths.clear();
         assert!(matches!(
             g.validate(),
-            Err(GanError::InvalidConfig {
+            Err(uwnr_gan::GanError::InvalidConfig {
                 field: "generator.widths",
                 ..
             })
@@ -499,7 +428,7 @@ mod tests {
         };
         assert!(matches!(
             g.validate(),
-            Err(GanError::InvalidConfig {
+            Err(uwnr_gan::GanError::InvalidConfig {
                 field: "generator.encoder_size",
                 ..
             })

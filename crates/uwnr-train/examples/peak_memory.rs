@@ -1,13 +1,15 @@
 //! Peak memory and time of one full-width render at a given size with the default
 //! [`RenderOptions`] (tiled above 1024 x 1024 px), random weights and a synthetic scene.
 //!
-//! `cargo run --release -p uwnr-model --example peak_memory -- 4000 3000`
+//! `cargo run --release -p uwnr-train --example peak_memory -- 4000 3000`
 //! prints the wall time and the process's peak resident set (VmHWM, Linux).
 
 use std::time::Instant;
 
 use uwnr_core::Image;
-use uwnr_model::{Device, GeneratorConfig, RenderOptions, render};
+use uwnr_model::{GeneratorConfig, RenderOptions};
+use uwnr_train::burn_render::render;
+use uwnr_train::{Device, GeneratorInit};
 
 fn vm_hwm_kib() -> Option<u64> {
     let status = std::fs::read_to_string("/proc/self/status").ok()?;

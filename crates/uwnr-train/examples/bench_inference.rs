@@ -1,7 +1,7 @@
 //! Forward-pass time of the full-width UWNR generator (seeded random weights) on the engine
 //! (f32, and with bf16 Winograd products) and on burn's flex backend, for
 //! `tools/bench_inference.sh`:
-//! `cargo run --release -p uwnr-model --example bench_inference -- [--runs N] [--sizes 256 512] [--no-flex]`.
+//! `cargo run --release -p uwnr-train --example bench_inference -- [--runs N] [--sizes 256 512] [--no-flex]`.
 //!
 //! Threads come from rayon (`RAYON_NUM_THREADS`). Prints the median of the timed runs after one
 //! warm-up, one `RESULT <path> <size> <ms>` line per measurement, and `PEAK <GFLOP/s>`: the FP32
@@ -19,8 +19,8 @@ use burn::tensor::{Distribution, Tensor};
 use rayon::prelude::*;
 use uwnr_engine::{EngineOptions, Means, Planar, Precision};
 use uwnr_model::network::engine_weights;
-use uwnr_model::weights::generator_to_tensors;
-use uwnr_model::{Device, GeneratorConfig, gmacs};
+use uwnr_model::{GeneratorConfig, gmacs};
+use uwnr_train::{Device, GeneratorInit, generator_to_tensors};
 
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);

@@ -2,9 +2,11 @@
 //! non-trivial activations, from `tools/torch_parity.py`).
 
 use std::path::Path;
+use uwnr_train::burn_render::render;
+use uwnr_train::{Device, load_generator};
 
 use uwnr_core::Image;
-use uwnr_model::{Device, ModelError, RenderOptions, load_generator, render};
+use uwnr_model::{ModelError, RenderOptions};
 
 /// Tiled and whole renders with an overlap of at least 2 x 76 + 32 px agree up to float
 /// rounding: every blended pixel is more than the receptive radius from a cut edge, and the
@@ -66,8 +68,8 @@ fn diff(a: &Image, b: &Image) -> (f32, f32) {
 #[test]
 fn tiled_matches_whole_image() {
     let device = Device::flex();
-    let weights =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/parity_w8.safetensors");
+    let weights = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../uwnr-model/tests/fixtures/parity_w8.safetensors");
     let (g, _, _) = load_generator(&weights, &device).unwrap();
     // 190 x 150 is not a multiple of 16: exercises the reflect padding and the crop.
     let (w, h) = (190, 150);
@@ -117,8 +119,8 @@ fn tiled_matches_whole_image() {
 #[test]
 fn inputs_are_checked() {
     let device = Device::flex();
-    let weights =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/parity_w8.safetensors");
+    let weights = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../uwnr-model/tests/fixtures/parity_w8.safetensors");
     let (g, _, _) = load_generator(&weights, &device).unwrap();
     let (clean, depth, lf) = scene(40, 30);
     let opts = RenderOptions::default();

@@ -7,13 +7,12 @@
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+use uwnr_train::{Device, load_generator, load_generator_from_bytes, save_generator};
 
 use burn::tensor::{Tensor, TensorData};
-use uwnr_model::weights::{SOURCE_METADATA_KEY, generator_to_tensors};
-use uwnr_model::{
-    Device, GeneratorConfig, ModelError, WeightsDtype, WeightsFormat, load_generator,
-    load_generator_from_bytes, read_weights, save_generator,
-};
+use uwnr_model::weights::SOURCE_METADATA_KEY;
+use uwnr_model::{GeneratorConfig, ModelError, WeightsDtype, WeightsFormat, read_weights};
+use uwnr_train::generator_to_tensors;
 
 /// Max abs difference allowed between the f32 burn forward and the f64 torch reference. The
 /// torch f32 forward differs from the f64 one by about 4e-7 on this input.
@@ -21,7 +20,7 @@ const PARITY_TOL: f32 = 1e-4;
 
 fn fixture(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/fixtures")
+        .join("../uwnr-model/tests/fixtures")
         .join(name)
 }
 
@@ -58,7 +57,7 @@ fn max_abs(a: Tensor<4>, b: &[f32]) -> f32 {
         .fold(0.0, f32::max)
 }
 
-fn check_parity(generator: &uwnr_model::Generator, device: &Device, what: &str) {
+fn check_parity(generator: &uwnr_train::Generator, device: &Device, what: &str) {
     let reference = reference();
     let (shape, input) = &reference["input"];
     let x = tensor4(shape, input, device);

@@ -7,10 +7,11 @@ use uwnr_core::Image;
 use uwnr_core::lightfield::{LightFieldMap, light_field_for_with};
 use uwnr_core::resize::resize_bilinear;
 use uwnr_model::style::{
-    REFERENCE_DEPTH, anchor, colour_transfer, detail_share, estimate_water, finish, finish_tensor,
-    retain_detail,
+    REFERENCE_DEPTH, anchor, colour_transfer, detail_share, estimate_water, finish, retain_detail,
 };
-use uwnr_model::{Backend, Device, GeneratorConfig, Network, ReferenceStyle, RenderOptions, Water};
+use uwnr_model::{Backend, GeneratorConfig, ReferenceStyle, RenderOptions, Water};
+use uwnr_train::burn_style::finish_tensor;
+use uwnr_train::{Device, GeneratorInit, RenderOn, network_from_generator};
 
 use crate::common::{max_abs, wave_image as image};
 
@@ -65,7 +66,7 @@ fn the_output_stage_in_burn_matches_the_plain_one() {
 }
 
 /// An anchored network at width 8 whose last convolution is random (a fresh one outputs 0).
-fn perturbed(device: &Device) -> (uwnr_model::Generator, GeneratorConfig) {
+fn perturbed(device: &Device) -> (uwnr_train::Generator, GeneratorConfig) {
     device.seed(5);
     let config = GeneratorConfig::anchored(8);
     let mut g = config.init(device).unwrap();
@@ -82,8 +83,8 @@ fn perturbed(device: &Device) -> (uwnr_model::Generator, GeneratorConfig) {
 fn the_engine_matches_burn_for_the_anchored_variant() {
     let device = Device::flex();
     let (g, config) = perturbed(&device);
-    let engine = Network::from_generator(&g, &config, &Backend::Engine).unwrap();
-    let burn = Network::from_generator(&g, &config, &Backend::Burn(device)).unwrap();
+    let engine = network_from_generator(&g, &config, &RenderOn::Engine(Backend::Engine)).unwrap();
+    let burn = network_from_generator(&g, &config, &RenderOn::Burn(device)).unwrap();
     let style = ReferenceStyle::new(&reference(64, 48), &config).unwrap();
     assert!(style.water.is_some());
     let (w, h) = (70, 41);
@@ -117,7 +118,7 @@ fn a_fresh_anchored_model_is_the_colour_transfer_at_the_reference_depth() {
     device.seed(3);
     let config = GeneratorConfig::anchored(8);
     let g = config.init(&device).unwrap();
-    let net = Network::from_generator(&g, &config, &Backend::Engine).unwrap();
+    let net = network_from_generator(&g, &config, &RenderOn::Engine(Backend::Engine)).unwrap();
     let reference = reference(64, 48);
     let style = ReferenceStyle::new(&reference, &config).unwrap();
     let clean = image(48, 32, 3, 1.0, 0.5);
@@ -163,7 +164,7 @@ fn mean_rgb(img: &Image) -> [f64; 3] {
 fn a_relative_map_responds_only_within_the_image() {
     let device = Device::flex();
     let (g, config) = perturbed(&device);
-    let net = Network::from_generator(&g, &config, &Backend::Engine).unwrap();
+    let net = network_from_generator(&g, &config, &RenderOn::Engine(Backend::Engine)).unwrap();
     let style = ReferenceStyle::new(&reference(64, 48), &config).unwrap();
     let clean = image(48, 32, 3, 1.0, 0.5);
     let opts = RenderOptions::default();
@@ -181,7 +182,7 @@ fn a_relative_map_responds_only_within_the_image() {
 fn farther_is_hazier_and_closer_to_the_veiling_light_whatever_the_weights() {
     let device = Device::flex();
     let (g, config) = perturbed(&device);
-    let net = Network::from_generator(&g, &config, &Backend::Engine).unwrap();
+    let net = network_from_generator(&g, &config, &RenderOn::Engine(Backend::Engine)).unwrap();
     let style = ReferenceStyle::new(&reference(64, 48), &config).unwrap();
     let veil = style.water.as_ref().unwrap().veil;
     let (w, h) = (48, 32);
@@ -333,7 +334,7 @@ fn a_fresh_detail_retaining_model_renders_its_anchor() {
         ..GeneratorConfig::anchored(8)
     };
     let g = config.init(&device).unwrap();
-    let net = Network::from_generator(&g, &config, &Backend::Engine).unwrap();
+    let net = network_from_generator(&g, &config, &RenderOn::Engine(Backend::Engine)).unwrap();
     let reference = ramp_and_grain(64, 48, [0.2, 0.02, 0.02]);
     let style = ReferenceStyle::new(&reference, &config).unwrap();
     let clean = image(48, 32, 3, 1.0, 0.5);

@@ -1,7 +1,7 @@
 //! Forward-pass time and peak memory of the full-width UWNR generator (11.57M parameters) on
 //! the flex CPU device at 256, 512 and 1024 px square.
 //!
-//! `cargo bench -p uwnr-model --bench generator`. The PyTorch reference for the same sizes is
+//! `cargo bench -p uwnr-train --bench generator`. The PyTorch reference for the same sizes is
 //! `python3 tools/torch_bench.py` (2 threads, no_grad). Peak memory is the high-water mark of
 //! heap bytes allocated during one forward, from a counting global allocator.
 
@@ -12,7 +12,8 @@ use std::time::Instant;
 
 use burn::tensor::{Distribution, Tensor};
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
-use uwnr_model::{Device, GeneratorConfig, gmacs};
+use uwnr_model::{GeneratorConfig, gmacs};
+use uwnr_train::{Device, GeneratorInit};
 
 /// Square sizes benchmarked.
 const SIZES: [usize; 3] = [256, 512, 1024];

@@ -1,17 +1,73 @@
-//! The state-dict keys ([`super::keys`]) mapped to burn's [`Generator`], both ways: a state dict
-//! assigned to a new module, and a module's tensors read back under the authors' keys.
-//! The engine's mapping of the same keys is `engine_keys.rs`, beside this one.
+//! The state-dict keys (`uwnr_model::weights::keys`) mapped to burn's [`Generator`], both ways:
+//! a state dict assigned to a new module, and a module's tensors read back under the authors'
+//! keys; and the generator loaded from and saved to a weights file. The engine's mapping of the
+//! same keys is `uwnr-model`'s `engine_keys.rs`.
+
+use std::collections::BTreeMap;
+use std::path::Path;
 
 use burn::nn::conv::Conv2d;
 use burn::tensor::{Device, Tensor, TensorData};
+use uwnr_model::weights::keys::{
+    ConvKey, DownKeys, KeySource, down_keys, map_levels, out_key, up_keys,
+};
+use uwnr_model::{
+    GeneratorConfig, LoadedWeights, ModelError, NamedTensor, Result, TensorMap, WeightsDtype,
+    WeightsInfo, read_weights, read_weights_from_bytes, save_weights,
+};
 
-use super::keys::{ConvKey, DownKeys, KeySource, down_keys, map_levels, out_key, up_keys};
-use super::{NamedTensor, TensorMap};
-use crate::config::GeneratorConfig;
-use crate::error::{ModelError, Result};
 use crate::generator::{
     BasicBlock, ChannelAttention, Down, Generator, SpatialAttention, Up, conv_from_tensors,
 };
+
+/// Loads a generator from a weights file: builds the network from the stored (or inferred)
+/// config and assigns every tensor.
+pub fn load_generator(
+    path: &Path,
+    device: &Device,
+) -> Result<(Generator, GeneratorConfig, WeightsInfo)> {
+    build(read_weights(path)?, device)
+}
+
+/// [`load_generator`] for weights held in memory.
+pub fn load_generator_from_bytes(
+    bytes: &[u8],
+    device: &Device,
+) -> Result<(Generator, GeneratorConfig, WeightsInfo)> {
+    build(read_weights_from_bytes(bytes)?, device)
+}
+
+fn build(
+    loaded: LoadedWeights,
+    device: &Device,
+) -> Result<(Generator, GeneratorConfig, WeightsInfo)> {
+    let LoadedWeights {
+        config,
+        tensors,
+        mut info,
+    } = loaded;
+    let (generator, ignored) = generator_from_tensors(&config, tensors, device)?;
+    info.ignored_keys = ignored;
+    Ok((generator, config, info))
+}
+
+/// Saves a generator as safetensors under the authors' keys, with `config` as JSON in the
+/// metadata and `metadata` beside it ([`uwnr_model::save_weights`]: written atomically).
+pub fn save_generator(
+    generator: &Generator,
+    config: &GeneratorConfig,
+    path: &Path,
+    dtype: WeightsDtype,
+    metadata: &BTreeMap<String, String>,
+) -> Result<()> {
+    save_weights(
+        &generator_to_tensors(generator, config)?,
+        config,
+        path,
+        dtype,
+        metadata,
+    )
+}
 
 /// Builds a generator for `config` from a state dict. Returns it with the keys that were
 /// present but unused (the `.norm.` keys). Every other key must be consumed exactly.
@@ -182,6 +238,7 @@ impl ToF32Vec for TensorData {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::generator::GeneratorInit;
 
     fn tiny() -> (Generator, GeneratorConfig, Device) {
         let device = Device::flex();
@@ -216,7 +273,7 @@ mod tests {
         );
         assert_eq!(map["out.0.weight"].shape, [3, 4, 3, 3]);
         let total: usize = map.values().map(|t| t.data.len()).sum();
-        assert_eq!(total, crate::config::param_count(&cfg, true));
+        assert_eq!(total, uwnr_model::param_count(&cfg, true));
     }
 
     #[test]

@@ -11,7 +11,7 @@
 //!   `out = tanh(conv3x3(up(y2)))`.
 //!
 //! Field names follow the PyTorch state-dict keys (`in_conv_down1.mpconv.2.conk3.weight`);
-//! [`crate::weights`] maps them. Channel attention pools over the whole input: besides
+//! [`crate::burn_weights`] maps them. Channel attention pools over the whole input: besides
 //! [`Generator::forward`] there are variants that take the pooled means from outside
 //! ([`Generator::forward_with_channel_means`]) or return them
 //! ([`Generator::forward_returning_channel_means`]), which tiled inference uses to keep the
@@ -23,9 +23,8 @@ use burn::nn::{Initializer, PaddingConfig2d, PixelShuffle, PixelShuffleConfig};
 use burn::tensor::activation::{elu, leaky_relu, sigmoid};
 use burn::tensor::{Device, Tensor};
 
-use crate::config::{ATTENTION_REDUCTION, GeneratorConfig, LEVELS};
-use crate::error::{ModelError, Result};
-use crate::variant::Variant;
+use uwnr_model::config::{ATTENTION_REDUCTION, GeneratorConfig, LEVELS};
+use uwnr_model::{ModelError, Result, Variant};
 
 /// Negative slope of every LeakyReLU: FSU2.py calls `nn.LeakyReLU()` without an argument,
 /// i.e. PyTorch's default 0.01.
@@ -268,7 +267,7 @@ impl Up {
 /// average of block `k`'s channel-attention input, `[b, base_width * 2^k, 1, 1]`.
 pub type ChannelMeans = [Tensor<4>; LEVELS];
 
-/// The UWNR generator (MHB-Unet). Build it with [`GeneratorConfig::init`] or load it with
+/// The UWNR generator (MHB-Unet). Build it with [`GeneratorInit::init`] or load it with
 /// [`crate::load_generator`].
 #[derive(Module, Debug)]
 pub struct Generator {
@@ -300,12 +299,18 @@ enum MeanSource<'a> {
     Given(&'a ChannelMeans),
 }
 
-impl GeneratorConfig {
+/// Builds burn's module from a generator config (the config lives in the render wing,
+/// `uwnr-model`, which renders without burn; the module lives here, with its training).
+pub trait GeneratorInit {
     /// Builds a generator with the released training script's initialisation: conv weights
     /// N(0, 0.02) (`weights_init_normal` in `myutils/utils.py`), biases left at PyTorch's
     /// default U(-1/sqrt(fan_in), 1/sqrt(fan_in)) because that function does not touch them.
     /// Seed the device (`device.seed(..)`) first for reproducible weights.
-    pub fn init(&self, device: &Device) -> Result<Generator> {
+    fn init(&self, device: &Device) -> Result<Generator>;
+}
+
+impl GeneratorInit for GeneratorConfig {
+    fn init(&self, device: &Device) -> Result<Generator> {
         self.validate()?;
         Ok(Generator::init(self, device))
     }
@@ -358,7 +363,7 @@ impl Generator {
     ///
     /// # Panics
     /// In burn's shape checks when `h` or `w` is not a multiple of 16 (a skip connection and
-    /// its upsampled partner then differ by a pixel). [`crate::render`] pads any size.
+    /// its upsampled partner then differ by a pixel). [`crate::burn_render::render`] pads any size.
     pub fn forward(&self, x: Tensor<4>) -> Tensor<4> {
         self.run(x, MeanSource::Own).0
     }
@@ -443,8 +448,8 @@ fn encode_level(down: &Down, x: Tensor<4>, mean: Option<Tensor<4>>) -> (Tensor<4
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::config::param_count;
     use burn::tensor::{Distribution, TensorData};
+    use uwnr_model::config::param_count;
 
     #[test]
     fn narrow_generator_shapes_and_params() {

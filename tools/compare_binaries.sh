@@ -1,0 +1,45 @@
+#!/usr/bin/env bash
+# Do two `uwnr` binaries make the same datasets? For every render method, `uwnr dataset` on the
+# same clean photos (Set14 at native sizes, so odd sizes and tiling-free whole images; plus two
+# SUN photos at 1024 px) and references (U45), K = 2, once as image folders and once as
+# WebDataset shards; then `cmp` of every file. Used when code moves between crates (the render
+# wing's split from burn): the outputs must not change, or the differences are listed.
+#   OLD=path/to/old/uwnr NEW=target/release/uwnr bash tools/compare_binaries.sh
+# Run from the repository root with ../shared/data present. Prints one line per method and
+# format, and the files that differ with the largest per-pixel difference of the images.
+set -euo pipefail
+DATA=${DATA:-../shared/data}
+OLD=${OLD:?the old binary}
+NEW=${NEW:-target/release/uwnr}
+WORK=$(mktemp -d)
+trap 'rm -rf "$WORK"' EXIT
+mkdir -p "$WORK/clean"
+cp "$DATA"/inair/set14/*.jpg "$WORK/clean/"
+ls "$DATA"/inair/sun-hays80/*.jpg | head -2 | xargs -I{} cp {} "$WORK/clean/"
+REFS="$DATA/references/u45"
+status=0
+for method in uwnr uwgan jerlov uisa seathru reinhard haze; do
+  for format in folder webdataset; do
+    extra=()
+    if [ "$format" = webdataset ]; then extra=(--format webdataset); fi
+    for which in old new; do
+      bin=$OLD; [ "$which" = new ] && bin=$NEW
+      "$bin" dataset --clean "$WORK/clean" --references "$REFS" --method "$method" \
+        --output "$WORK/$method-$format-$which" --per-image 2 --seed 7 --no-gallery \
+        "${extra[@]}" > "$WORK/$method-$format-$which.log" 2>&1 || {
+        echo "$method $format $which: failed"; tail -3 "$WORK/$method-$format-$which.log"; status=1; }
+    done
+    a="$WORK/$method-$format-old" b="$WORK/$method-$format-new"
+    n=$(cd "$a" && find . -type f | wc -l)
+    diffs=$(cd "$a" && find . -type f | sort | while read -r f; do
+      cmp -s "$f" "$b/$f" || echo "$f"; done)
+    if [ -z "$diffs" ] && [ "$n" = "$(cd "$b" && find . -type f | wc -l)" ]; then
+      echo "$method $format: $n files, byte-identical"
+    else
+      echo "$method $format: $(echo "$diffs" | grep -c .) of $n files differ"
+      echo "$diffs" | head -5 | sed 's/^/  /'
+      status=1
+    fi
+  done
+done
+exit $status
