@@ -541,7 +541,7 @@ fn options_that_do_not_apply_to_the_method_are_refused() {
 }
 
 #[test]
-fn bf16_precision_renders_on_the_engine_and_is_refused_elsewhere() {
+fn bf16_precision_renders_on_the_engine_and_burn_devices_are_refused() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out.png");
     let (clean, reference, w) = (
@@ -571,12 +571,13 @@ fn bf16_precision_renders_on_the_engine_and_is_refused_elsewhere() {
     let o = uwnr(&args(&["--precision", "bf16", "--device", "flex"]));
     assert!(!o.status.success());
     let err = stderr(&o);
-    assert!(
-        err.contains("--precision bf16 runs on the engine only"),
-        "{err}"
-    );
+    assert!(err.contains("renders run on the engine"), "{err}");
     assert_eq!(err.trim().lines().count(), 1, "one line: {err}");
     assert!(!out.exists());
+    // Rendering through burn is gone with the training framework: flex alone is refused too.
+    let o = uwnr(&args(&["--device", "flex"]));
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("renders run on the engine"), "{}", stderr(&o));
 }
 
 #[test]
