@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Independent NumPy / OpenCV / scikit-image computations of the reference-based baselines'
-building blocks, written to crates/uwnr-baselines/tests/fixtures/reference_values.json for
-crates/uwnr-baselines/tests/suite/reference_values.rs to compare against.
+building blocks, written to crates/render/uwnr-baselines/tests/fixtures/reference_values.json for
+crates/render/uwnr-baselines/tests/suite/reference_values.rs to compare against.
 
 - SUID quadtree background light on assets/samples/ref-green.png, following the public
   re-implementation vismiroglou/SUID_data_generation (score = mean - std over all channel values,
@@ -26,7 +26,7 @@ from PIL import Image
 from skimage import color
 
 ROOT = Path(__file__).resolve().parent.parent
-OUT = ROOT / "crates/uwnr-baselines/tests/fixtures/reference_values.json"
+OUT = ROOT / "crates/render/uwnr-baselines/tests/fixtures/reference_values.json"
 MIN_FRACTION = 0.01
 WINDOW = 15
 T_FLOOR = 0.1

@@ -9,7 +9,7 @@ Computes, with the real Pillow and OpenCV 4.x:
     and `cv2.GaussianBlur(img, (0, 0), sigma)` on uint8 images, individually;
   * `np.log10` of every uint8 value (NumPy evaluates it in float16).
 
-Writes PNG fixtures and JSON manifests to crates/uwnr-core/tests/fixtures/{lightfield,ops}/.
+Writes PNG fixtures and JSON manifests to crates/render/uwnr-core/tests/fixtures/{lightfield,ops}/.
 Run from the workspace root:
 
     pip install "opencv-python-headless<5" "pillow<13" numpy
@@ -37,7 +37,7 @@ import PIL
 from PIL import Image
 
 ROOT = Path(__file__).resolve().parent.parent
-FIXTURES = ROOT / "crates" / "uwnr-core" / "tests" / "fixtures"
+FIXTURES = ROOT / "crates" / "render" / "uwnr-core" / "tests" / "fixtures"
 SHARED = ROOT.parent / "shared" / "data"
 SAMPLES = ROOT / "assets" / "samples"
 

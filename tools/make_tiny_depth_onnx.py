@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Writes the tiny ONNX "depth models" used by crates/uwnr-depth/tests.
+"""Writes the tiny ONNX "depth models" used by crates/render/uwnr-depth/tests.
 
 They are not depth networks: each computes a known function of its input so the Rust
 tests can re-compute the expected output and compare numerically:
@@ -10,7 +10,7 @@ where x is the ImageNet-normalised NCHW input. The sigmoid is monotonic but not 
 so after uwnr's min-max normalisation the result still depends on the per-channel mean
 and std used to normalise the input (a purely linear model would hide a wrong mean).
 
-Files written to crates/uwnr-depth/tests/fixtures/:
+Files written to crates/render/uwnr-depth/tests/fixtures/:
 - tiny_fixed.onnx     input [1,3,8,12] (fixed H=8, W=12), output [1,1,8,12]
 - tiny_dynamic.onnx   input [1,3,"height","width"], output [1,"height","width"] (Squeeze)
 - tiny_bad_output.onnx input [1,3,"height","width"], output [1,3,"height","width"]
@@ -18,7 +18,7 @@ Files written to crates/uwnr-depth/tests/fixtures/:
 
 Run from the repository root:  python3 tools/make_tiny_depth_onnx.py
 Needs the `onnx` and `numpy` packages. The weights below are repeated in
-crates/uwnr-depth/tests/suite/onnx.rs; change both together.
+crates/render/uwnr-depth/tests/suite/onnx.rs; change both together.
 """
 
 from pathlib import Path
@@ -36,7 +36,7 @@ FIXED_H, FIXED_W = 8, 12
 OPSET = 13
 IR_VERSION = 8
 
-OUT_DIR = Path(__file__).resolve().parent.parent / "crates" / "uwnr-depth" / "tests" / "fixtures"
+OUT_DIR = Path(__file__).resolve().parent.parent / "crates" / "render" / "uwnr-depth" / "tests" / "fixtures"
 
 
 def conv_weights(out_channels):

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Writes a tiny ONNX stand-in for the InceptionV3 feature network, and its test vector.
 
-crates/uwnr-metrics reads a user's InceptionV3 (pool3, 2048-d) through tract-onnx. We
+crates/render/uwnr-metrics reads a user's InceptionV3 (pool3, 2048-d) through tract-onnx. We
 cannot ship Inception weights, so the Rust test runs this tiny model instead: it has
 the same interface as pytorch-fid's InceptionV3 exported to ONNX with a fixed input,
 
@@ -17,7 +17,7 @@ preprocessing: u8 / 255 as float32, `torch.nn.functional.interpolate(x, (299, 29
 mode="bilinear", align_corners=False)` (no antialiasing), then `2 x - 1`, then the
 model evaluated with `onnx.reference.ReferenceEvaluator`.
 
-Files written to crates/uwnr-metrics/tests/fixtures/:
+Files written to crates/render/uwnr-metrics/tests/fixtures/:
 - tiny_inception.onnx
 - inception_input.png          (a 37x23 RGB image, seeded)
 - inception_expected.json      (the D features, plus the resized pixels at a few places)
@@ -44,7 +44,7 @@ OPSET = 13
 IR_VERSION = 8
 INPUT_W, INPUT_H = 37, 23
 
-OUT_DIR = Path(__file__).resolve().parent.parent / "crates" / "uwnr-metrics" / "tests" / "fixtures"
+OUT_DIR = Path(__file__).resolve().parent.parent / "crates" / "render" / "uwnr-metrics" / "tests" / "fixtures"
 
 
 def build_model(rng):

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Reference values for crates/uwnr-metrics, computed with numpy / scipy / scikit-image.
+"""Reference values for crates/render/uwnr-metrics, computed with numpy / scipy / scikit-image.
 
 What each number is (the Rust crate follows the same definitions):
 
@@ -36,7 +36,7 @@ Images are 8-bit PNGs written into the fixtures folder and read back as u8 / 255
 float32 (what uwnr's decoder produces), then widened to float64.
 
 Run from the repository root:  python3 tools/metrics_reference.py
-Writes crates/uwnr-metrics/tests/fixtures/{*.png, metrics_expected.json, frechet_expected.json}.
+Writes crates/render/uwnr-metrics/tests/fixtures/{*.png, metrics_expected.json, frechet_expected.json}.
 """
 
 import json
@@ -52,7 +52,7 @@ from skimage.metrics import peak_signal_noise_ratio, structural_similarity
 
 ROOT = Path(__file__).resolve().parent.parent
 SAMPLES = ROOT / "assets" / "samples"
-OUT_DIR = ROOT / "crates" / "uwnr-metrics" / "tests" / "fixtures"
+OUT_DIR = ROOT / "crates" / "render" / "uwnr-metrics" / "tests" / "fixtures"
 SEED = 1234
 
 LUMA_BT601 = np.array([0.299, 0.587, 0.114])

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Reference outputs of Shallow-UWnet in PyTorch, for crates/uwnr-enhance's parity test.
+"""Reference outputs of Shallow-UWnet in PyTorch, for crates/train/uwnr-enhance's parity test.
 
 The architecture is written here from the paper's description (Naik et al. 2021) with the
 released module names, so the state-dict keys are the released ones: `input.weight`,
@@ -8,9 +8,9 @@ released module names, so the state-dict keys are the released ones: `input.weig
 `output.weight`; no biases.
 
 Writes, at width 16 with 3 blocks and seeded random weights:
-- crates/uwnr-enhance/tests/fixtures/parity_w16.safetensors: the weights;
-- crates/uwnr-enhance/tests/fixtures/parity_w16.pth: the same as a PyTorch state dict;
-- crates/uwnr-enhance/tests/fixtures/parity_w16_io.safetensors: `input` (1x3x24x40) and
+- crates/train/uwnr-enhance/tests/fixtures/parity_w16.safetensors: the weights;
+- crates/train/uwnr-enhance/tests/fixtures/parity_w16.pth: the same as a PyTorch state dict;
+- crates/train/uwnr-enhance/tests/fixtures/parity_w16_io.safetensors: `input` (1x3x24x40) and
   `output` (eval mode, computed in float64).
 Also prints the parameter count of the paper's network (width 64).
 
@@ -27,7 +27,7 @@ SEED = 20210202
 WIDTH = 16
 BLOCKS = 3
 INPUT_SHAPE = (1, 3, 24, 40)
-OUT = Path("crates/uwnr-enhance/tests/fixtures")
+OUT = Path("crates/train/uwnr-enhance/tests/fixtures")
 
 
 class Block(nn.Module):

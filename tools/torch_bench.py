@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Forward-pass time of the full-width UWNR generator in PyTorch on the CPU, the reference for
-crates/uwnr-train's `cargo bench -p uwnr-train --bench generator`.
+crates/train/uwnr-train's `cargo bench -p uwnr-train --bench generator`.
 
 Same architecture as tools/torch_parity.py (width 64, 11.57M parameters), 2 threads, no_grad,
 input 1x7xSxS uniform in [0, 1] for S in 256, 512, 1024. Prints the median of several runs

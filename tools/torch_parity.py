@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Reference outputs of the UWNR generator (MHB-Unet) in PyTorch, for crates/uwnr-model's
+"""Reference outputs of the UWNR generator (MHB-Unet) in PyTorch, for crates/render/uwnr-model's
 parity tests.
 
 The architecture is written here from the method description (UWNR, Ye et al., CVPR-W 2022,
@@ -9,12 +9,12 @@ are the authors': `in_conv_down1.mpconv.0.weight`, `...mpconv.2.SA.spatial_pool.
 Writes, at width 8 with seeded random weights (scaled up from the N(0, 0.02) training init so
 that activations are far from zero and the tanh is neither flat nor saturated):
 
-- crates/uwnr-model/tests/fixtures/parity_w8.safetensors: the weights (f16, to keep the file
+- crates/render/uwnr-model/tests/fixtures/parity_w8.safetensors: the weights (f16, to keep the file
   small; the reference is computed from the same f16-rounded values), with the config and
   provenance in the safetensors metadata;
-- crates/uwnr-model/tests/fixtures/parity_w8_ckpt.pth: the same weights as the authors'
+- crates/render/uwnr-model/tests/fixtures/parity_w8_ckpt.pth: the same weights as the authors'
   training checkpoint, `torch.save({'G1': {'module.' + k: v}, 'optimizer_weightG1': ...})`;
-- crates/uwnr-model/tests/fixtures/parity_w8_io.safetensors: `input` (1x7x32x48),
+- crates/render/uwnr-model/tests/fixtures/parity_w8_io.safetensors: `input` (1x7x32x48),
   `output` (1x3x32x48, computed in float64) and `mean.K` (the pooled channel-attention input
   of encoder block K).
 
@@ -154,7 +154,7 @@ def randomize(model, gen):
 def main():
     root = Path(__file__).resolve().parent.parent
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--out-dir", type=Path, default=root / "crates/uwnr-model/tests/fixtures")
+    ap.add_argument("--out-dir", type=Path, default=root / "crates/render/uwnr-model/tests/fixtures")
     args = ap.parse_args()
     args.out_dir.mkdir(parents=True, exist_ok=True)
 

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Trains the bundled GAN baseline (`--method uwgan`, crates/uwnr-gan) with config
+# Trains the bundled GAN baseline (`--method uwgan`, crates/render/uwnr-gan) with config
 # tools/train_uwgan.json: UWGAN's recipe (non-saturating loss, Adam 2e-4, beta1 0.5, one
 # generator update per discriminator update) on 128x128 random crops, batch 8, 60 epochs.
 # Clean side: every in-air folder and the RGB-D sets of ../shared/data (real depth maps for the

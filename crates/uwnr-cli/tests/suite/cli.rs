@@ -577,7 +577,11 @@ fn bf16_precision_renders_on_the_engine_and_burn_devices_are_refused() {
     // Rendering through burn is gone with the training framework: flex alone is refused too.
     let o = uwnr(&args(&["--device", "flex"]));
     assert!(!o.status.success());
-    assert!(stderr(&o).contains("renders run on the engine"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("renders run on the engine"),
+        "{}",
+        stderr(&o)
+    );
 }
 
 #[test]

@@ -13,7 +13,7 @@ pub fn sample(name: &str) -> PathBuf {
 }
 
 pub fn weights() -> PathBuf {
-    root().join("crates/uwnr-model/tests/fixtures/parity_w8.safetensors")
+    root().join("crates/render/uwnr-model/tests/fixtures/parity_w8.safetensors")
 }
 
 pub fn uwnr(args: &[&str]) -> Output {

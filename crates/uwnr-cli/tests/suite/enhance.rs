@@ -10,7 +10,7 @@ use crate::common::{files_in, s, stderr, uwnr};
 
 /// Width-16 Shallow-UWnet weights with random values (uwnr-enhance's parity fixture).
 fn enhancer_weights() -> PathBuf {
-    crate::common::root().join("crates/uwnr-enhance/tests/fixtures/parity_w16.safetensors")
+    crate::common::root().join("crates/train/uwnr-enhance/tests/fixtures/parity_w16.safetensors")
 }
 
 /// A smooth image and a cast, hazy copy of it.
