@@ -7,9 +7,9 @@
 
 use uwnr_core::Image;
 
-use crate::config::{ENCODER_IN, GeneratorConfig, LEAKY_SLOPE, RAW_PARAMS, RGB};
+use crate::config::{ENCODER_IN, GeneratorConfig, LEAKY_SLOPE, RAW_PARAMS};
 use crate::error::{GanError, Result};
-use crate::imaging::{WaterValues, render};
+use crate::imaging::{WaterValues, check_inputs, render};
 
 /// One stride-2 conv3x3 (padding 1) of the encoder.
 #[derive(Clone, Debug)]
@@ -173,25 +173,6 @@ impl Generator {
         let out = render(clean, depth, &values, &self.config.imaging)?;
         Ok((out, values))
     }
-}
-
-/// The clean image is RGB and the depth map one channel of its size.
-pub(crate) fn check_inputs(clean: &Image, depth: &Image) -> Result<()> {
-    if clean.channels() != RGB {
-        return Err(GanError::ShapeMismatch {
-            what: "clean image channels",
-            expected: vec![RGB],
-            got: vec![clean.channels()],
-        });
-    }
-    if depth.channels() != 1 || depth.size() != clean.size() {
-        return Err(GanError::ShapeMismatch {
-            what: "depth map (channels, width, height)",
-            expected: vec![1, clean.width(), clean.height()],
-            got: vec![depth.channels(), depth.width(), depth.height()],
-        });
-    }
-    Ok(())
 }
 
 #[cfg(test)]

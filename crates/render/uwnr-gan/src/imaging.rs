@@ -12,8 +12,7 @@ use uwnr_core::Image;
 use crate::config::{
     BETA_MAX, BINOMIAL, GAIN_MAX, GAIN_MIN, ImagingConfig, RAW_PARAMS, RGB, VIGNETTE_MAX,
 };
-use crate::error::Result;
-use crate::generator::check_inputs;
+use crate::error::{GanError, Result};
 
 /// The image-formation parameters of one render.
 #[derive(Clone, Debug, PartialEq)]
@@ -96,6 +95,25 @@ fn binomial_blur(plane: &[f32], w: usize, h: usize) -> Vec<f32> {
         }
     });
     out
+}
+
+/// The clean image is RGB and the depth map one channel of its size.
+pub(crate) fn check_inputs(clean: &Image, depth: &Image) -> Result<()> {
+    if clean.channels() != RGB {
+        return Err(GanError::ShapeMismatch {
+            what: "clean image channels",
+            expected: vec![RGB],
+            got: vec![clean.channels()],
+        });
+    }
+    if depth.channels() != 1 || depth.size() != clean.size() {
+        return Err(GanError::ShapeMismatch {
+            what: "depth map (channels, width, height)",
+            expected: vec![1, clean.width(), clean.height()],
+            got: vec![depth.channels(), depth.width(), depth.height()],
+        });
+    }
+    Ok(())
 }
 
 /// Renders `clean` (RGB in [0, 1]) with its `depth` (1 channel, [0, 1], larger = farther, the

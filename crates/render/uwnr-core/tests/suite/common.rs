@@ -13,7 +13,7 @@ pub fn fixtures() -> PathBuf {
 
 /// The workspace root (manifests list sources relative to it).
 pub fn workspace_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join("..")
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../..")
 }
 
 /// Reads an 8-bit RGB PNG fixture as interleaved u8.
