@@ -4,7 +4,8 @@
 # SUN photos at 1024 px) and references (U45), K = 2, once as image folders and once as
 # WebDataset shards; then `cmp` of every file. Used when code moves between crates (the render
 # wing's split from burn): the outputs must not change, or the differences are listed.
-#   OLD=path/to/old/uwnr NEW=target/release/uwnr bash tools/compare_binaries.sh
+#   OLD=path/to/old/uwnr NEW=target/release/uwnr [PYTHON=venv/bin/python] bash tools/compare_binaries.sh
+# (PYTHON needs numpy and pillow, to measure how far differing images are apart.)
 # Run from the repository root with ../shared/data present. Prints one line per method and
 # format, and the files that differ with the largest per-pixel difference of the images.
 set -euo pipefail
@@ -18,7 +19,7 @@ cp "$DATA"/inair/set14/*.jpg "$WORK/clean/"
 ls "$DATA"/inair/sun-hays80/*.jpg | head -2 | xargs -I{} cp {} "$WORK/clean/"
 REFS="$DATA/references/u45"
 status=0
-for method in uwnr uwgan jerlov uisa seathru reinhard haze; do
+for method in ${METHODS:-uwnr uwgan jerlov uisa seathru reinhard haze}; do
   for format in folder webdataset; do
     extra=()
     if [ "$format" = webdataset ]; then extra=(--format webdataset); fi
@@ -37,7 +38,23 @@ for method in uwnr uwgan jerlov uisa seathru reinhard haze; do
       echo "$method $format: $n files, byte-identical"
     else
       echo "$method $format: $(echo "$diffs" | grep -c .) of $n files differ"
-      echo "$diffs" | head -5 | sed 's/^/  /'
+      echo "$diffs" | grep -v '\.png$' | sed 's/^/  /'
+      # How far apart the differing images are, in 8-bit levels.
+      echo "$diffs" | grep '\.png$' | "${PYTHON:-python3}" -c '
+import sys
+import numpy as np
+from PIL import Image
+a, b = sys.argv[1], sys.argv[2]
+worst, pixels, total = 0, 0, 0
+for f in sys.stdin.read().split():
+    x = np.asarray(Image.open(a + "/" + f), dtype=np.int32)
+    y = np.asarray(Image.open(b + "/" + f), dtype=np.int32)
+    d = np.abs(x - y)
+    worst = max(worst, int(d.max()))
+    pixels += int((d.max(axis=-1) > 0).sum())
+    total += d.shape[0] * d.shape[1]
+print(f"  images: largest difference {worst} level(s), {pixels} of {total} pixels differ")
+' "$a" "$b"
       status=1
     fi
   done

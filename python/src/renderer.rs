@@ -15,7 +15,7 @@ use uwnr_core::Image;
 use uwnr_core::lightfield::{LightFieldMap, light_field_with};
 use uwnr_dataset::DepthPolicy;
 use uwnr_model::{GeneratorConfig, ReferenceStyle};
-use uwnr_render::{MethodKind, ReferenceInput, ReferenceUse, RenderError, Renderer};
+use uwnr_render::{JobWorker, MethodKind, ReferenceInput, ReferenceUse, RenderError, Renderer};
 
 use crate::convert::{Dtype, PixelView, Pixels, image_bytes};
 use crate::{Failure, compute, model, value};
@@ -188,9 +188,9 @@ impl NativeRenderer {
                 prior: true,
             },
         };
-        let response = self.policy.response(&depth, job.seed);
-        // The network reads the reference's style (cached per reference), the baselines its
-        // pixels.
+        // The network reads the reference's style (cached per reference object, which any
+        // renderer may take, so its light fields are shared between networks), the baselines
+        // its pixels.
         let style = match (job.reference, self.renderer.generator_config()) {
             (Some(r), Some(config)) => Some(r.style(config)?),
             _ => None,
@@ -199,9 +199,9 @@ impl NativeRenderer {
             image: Some(&r.image),
             style: style.as_ref(),
         });
-        let worker = self.renderer.worker().map_err(failure)?;
+        let worker = JobWorker::new(self.renderer.worker().map_err(failure)?, &self.policy);
         worker
-            .render(&clean, &depth.map, &response, input, job.seed)
+            .render(&clean, &depth, input, job.seed)
             .map(|r| r.image)
             .map_err(failure)
     }

@@ -10,6 +10,7 @@ pub mod index;
 pub mod io;
 pub mod lightfield;
 pub mod resize;
+pub mod seed;
 pub mod sheet;
 
 pub use error::{CoreError, Result};

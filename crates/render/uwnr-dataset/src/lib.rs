@@ -22,7 +22,6 @@
 //! OUT/preview.png, OUT/index.html, OUT/gallery/   a look at the result
 //! ```
 
-pub mod depth;
 pub mod error;
 pub mod gallery;
 pub mod labels;
@@ -35,7 +34,6 @@ pub mod target;
 pub mod verify;
 pub mod webdataset;
 
-pub use depth::{DATASET_PRIOR_TRUST, DATASET_SCENE_SCALE_M, DepthPolicy};
 pub use error::{DatasetError, Result};
 pub use labels::LabelInputs;
 pub use manifest::{Failure, Record, Settings};
@@ -44,5 +42,7 @@ pub use plan::{Shard, Size};
 pub use renderer::Renderer;
 pub use run::{Event, RunOptions, Spec, Summary, generate};
 pub use target::{StrengthSummary, TargetKind, WaterTarget};
+pub use uwnr_render::depth_policy as depth;
+pub use uwnr_render::{DATASET_PRIOR_TRUST, DATASET_SCENE_SCALE_M, DepthPolicy};
 pub use verify::{Report, verify};
 pub use webdataset::{ExportReport, export};

@@ -197,14 +197,7 @@ pub fn pair_id(name: &str, k: usize) -> String {
     format!("{name}_{k}")
 }
 
-/// SplitMix64 finaliser: a well-mixed 64-bit value from `x`.
-#[must_use]
-pub fn mix(x: u64) -> u64 {
-    let mut z = x.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
-}
+pub use uwnr_core::seed::mix;
 
 /// The seed of the pair with global index `pair_index` (`clean_index * K + k`): what a
 /// randomised method samples its parameters from.

@@ -41,7 +41,8 @@ use crate::manifest::{
     write_failures, write_manifest,
 };
 use crate::plan::{ReferenceOrder, Shard, Size, discover_images, pair_seed};
-use crate::renderer::{ReferenceInput, Renderer, Worker};
+use crate::renderer::{ReferenceInput, Renderer};
+use uwnr_render::JobWorker;
 use uwnr_render::Rendered;
 
 /// What to generate.
@@ -163,7 +164,9 @@ pub fn generate(
             "--per-image must be at least 1".into(),
         ));
     }
-    spec.depth_policy.validate()?;
+    spec.depth_policy
+        .validate()
+        .map_err(|e| DatasetError::Invalid(e.to_string()))?;
     std::fs::create_dir_all(out).map_err(io_err(out))?;
     let exclude = out.canonicalize().map_err(io_err(out))?;
     let cleans = discover_images(&spec.clean, "clean", Some(&exclude))?;
@@ -394,7 +397,7 @@ pub fn generate(
             let (ctx, todo, next) = (&ctx, &todo, &next);
             scope.spawn(move || {
                 let worker = match renderer.worker() {
-                    Ok(w) => w,
+                    Ok(w) => JobWorker::new(w, &spec.depth_policy),
                     Err(e) => {
                         let _ = tx.send(Msg::WorkerFailed(e.to_string()));
                         return;
@@ -527,7 +530,7 @@ impl Context<'_> {
     /// Makes the pairs `ks` of clean image `i`. Returns false when the receiver is gone.
     fn make_clean(
         &self,
-        worker: &Worker<'_>,
+        worker: &JobWorker<'_>,
         i: usize,
         ks: &[usize],
         tx: &SyncSender<Msg>,
@@ -710,7 +713,7 @@ impl Context<'_> {
     #[allow(clippy::too_many_arguments)]
     fn make_pair(
         &self,
-        worker: &Worker<'_>,
+        worker: &JobWorker<'_>,
         clean: &Image,
         depth: &uwnr_depth::Depth,
         reference: Option<&(usize, Arc<ReferenceStyle>)>,
@@ -754,12 +757,11 @@ impl Context<'_> {
             None => (None, None),
         };
         let lf = reference.map(|(_, style)| &style.light_field);
-        let response = self.spec.depth_policy.response(depth, seed);
         let Rendered {
             image: underwater,
             mut params,
         } = worker
-            .render(clean, &depth.map, &response, input, seed)
+            .render(clean, depth, input, seed)
             .map_err(|e| e.to_string())?;
         let name = format!("{id}.png");
         let write = |dir: &str, f: &dyn Fn(&Path) -> uwnr_core::Result<()>| {

@@ -1,8 +1,9 @@
 //! uwnr-render: what a render method is, in one place. [`MethodSpec`] is a method with every
 //! setting it renders with (one variant per method, tagged `"method"` in JSON); [`Renderer`]
-//! loads one and renders with it. `uwnr render`, `uwnr dataset`, `uwnr experiment` and the
-//! Python package all go through these two types, so a method added here (its module and one
-//! variant) is a method everywhere.
+//! loads one and renders with it; [`RenderJob`] is the sequence around a render (the depth
+//! policy, references prepared once, the item's seed). `uwnr render`, `uwnr dataset`, `uwnr
+//! experiment`, the page and the Python package all go through these types, so a method added
+//! here (its module and one variant) is a method everywhere.
 //!
 //! | method | module | reference | random per render |
 //! |---|---|---|---|
@@ -25,14 +26,18 @@
 //! assert_eq!(out.params["method"], "haze");
 //! ```
 
+pub mod depth_policy;
 pub mod error;
 pub mod haze;
+pub mod job;
 pub mod method;
 pub mod record;
 pub mod renderer;
 
+pub use depth_policy::{DATASET_PRIOR_TRUST, DATASET_SCENE_SCALE_M, DepthPolicy};
 pub use error::{RenderError, Result};
 pub use haze::HazeParams;
+pub use job::{JobWorker, RenderJob};
 pub use method::{
     ComputeDevice, MethodKind, MethodSpec, Precision, ReferenceUse, UwganSpec, UwnrSpec,
 };

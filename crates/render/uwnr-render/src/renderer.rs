@@ -2,7 +2,7 @@
 //! per-thread [`Worker`].
 
 use std::path::Path;
-use std::sync::Mutex;
+use std::sync::{Arc, Mutex};
 
 use serde_json::{Map, Value, json};
 use uwnr_baselines::{Method, RenderInput};
@@ -67,8 +67,8 @@ pub struct ReferenceInput<'a> {
 /// A reference prepared for a renderer: what its method reads of it, computed once.
 #[derive(Clone, Default)]
 pub struct PreparedReference {
-    /// The decoded image, kept for methods that read it.
-    pub image: Option<Image>,
+    /// The decoded image, kept for methods that read it (shared, never copied).
+    pub image: Option<Arc<Image>>,
     /// The style, computed for the network.
     pub style: Option<ReferenceStyle>,
 }
@@ -78,7 +78,7 @@ impl PreparedReference {
     #[must_use]
     pub fn input(&self) -> ReferenceInput<'_> {
         ReferenceInput {
-            image: self.image.as_ref(),
+            image: self.image.as_deref(),
             style: self.style.as_ref(),
         }
     }
@@ -276,7 +276,7 @@ impl Renderer {
     }
 
     /// What this method reads of reference `img`, computed once for many renders.
-    pub fn prepare_reference(&self, img: Image) -> Result<PreparedReference> {
+    pub fn prepare_reference(&self, img: Arc<Image>) -> Result<PreparedReference> {
         Ok(match &self.imp {
             Imp::Uwnr(_) => PreparedReference {
                 style: Some(self.reference_style(&img)?),
@@ -575,8 +575,8 @@ mod tests {
             "w".into(),
             b"",
         );
-        let reference = Image::filled(40, 30, 3, 0.3);
-        let prepared = net.prepare_reference(reference.clone()).unwrap();
+        let reference = Arc::new(Image::filled(40, 30, 3, 0.3));
+        let prepared = net.prepare_reference(Arc::clone(&reference)).unwrap();
         assert!(prepared.style.is_some() && prepared.image.is_none());
         let clean = Image::filled(32, 32, 3, 0.5);
         let depth = Image::filled(32, 32, 1, 0.5);
@@ -594,8 +594,10 @@ mod tests {
         assert_eq!(out.image.size(), (32, 32));
         assert_eq!(out.params["weights"], "w");
         let reinhard = Renderer::load(MethodSpec::defaults(MethodKind::Reinhard, true)).unwrap();
-        let prepared = reinhard.prepare_reference(reference).unwrap();
-        assert!(prepared.image.is_some() && prepared.style.is_none());
+        let prepared = reinhard.prepare_reference(Arc::clone(&reference)).unwrap();
+        assert!(prepared.style.is_none());
+        // The baselines share the decoded reference rather than copy it.
+        assert!(Arc::ptr_eq(prepared.image.as_ref().unwrap(), &reference));
     }
 
     #[test]

@@ -14,7 +14,7 @@ use uwnr_core::resize::fit_within;
 use uwnr_dataset::DepthPolicy;
 use uwnr_dataset::plan::ReferenceOrder;
 use uwnr_depth::{DepthSource, DepthUnit};
-use uwnr_render::{MethodSpec, Renderer};
+use uwnr_render::{MethodSpec, RenderJob, Renderer};
 
 use crate::ServeConfig;
 use crate::error::{Result, ServeError};
@@ -35,6 +35,11 @@ const KEPT_IMAGES: usize = 8;
 const KEPT_UPLOADS: usize = 16;
 /// Loaded methods kept (the networks' weights are the large part).
 const KEPT_RENDERERS: usize = 12;
+/// Render jobs kept (a method with a depth setting), each with the references it prepared.
+const KEPT_JOBS: usize = 4;
+/// References a job keeps prepared (a baseline's share the decoded image with the decoded
+/// references kept above: at most `KEPT_IMAGES + KEPT_JOBS * KEPT_PREPARED` full-size images).
+const KEPT_PREPARED: usize = 2;
 /// Largest reference page.
 const MAX_PAGE: usize = 100;
 
@@ -105,6 +110,7 @@ pub struct Engine {
     upload_dir: tempfile::TempDir,
     uploads: Mutex<(u64, VecDeque<(String, Upload)>)>,
     renderers: Mutex<Lru<String, Arc<Renderer>>>,
+    jobs: Mutex<Lru<String, Arc<RenderJob>>>,
     previews: Mutex<Lru<CleanSource, Arc<Image>>>,
     references: Mutex<Lru<usize, Arc<Image>>>,
     thumbs: Mutex<Lru<usize, std::result::Result<RefInfo, String>>>,
@@ -133,6 +139,7 @@ impl Engine {
             upload_dir,
             uploads: Mutex::new((1, VecDeque::new())),
             renderers: Mutex::new(Lru::new(KEPT_RENDERERS)),
+            jobs: Mutex::new(Lru::new(KEPT_JOBS)),
             previews: Mutex::new(Lru::new(KEPT_IMAGES)),
             references: Mutex::new(Lru::new(KEPT_IMAGES)),
             thumbs: Mutex::new(Lru::new(KEPT_THUMBS)),
@@ -163,6 +170,24 @@ impl Engine {
         let r = Arc::new(Renderer::load(spec.clone())?);
         lock(&self.renderers).put(key, r.clone());
         Ok(r)
+    }
+
+    /// The render job of `spec` with `policy`: references are prepared once per job.
+    fn job(&self, spec: &MethodSpec, policy: DepthPolicy) -> Result<Arc<RenderJob>> {
+        let bad = |e: serde_json::Error| ServeError::BadRequest(e.to_string());
+        let key = format!(
+            "{}|{}",
+            serde_json::to_string(spec).map_err(bad)?,
+            serde_json::to_string(&policy).map_err(bad)?
+        );
+        if let Some(j) = lock(&self.jobs).get(&key) {
+            return Ok(j);
+        }
+        let job = RenderJob::new(self.renderer(spec)?, policy, 0, KEPT_PREPARED)
+            .map_err(|e| ServeError::BadRequest(e.to_string()))?;
+        let job = Arc::new(job);
+        lock(&self.jobs).put(key, job.clone());
+        Ok(job)
     }
 
     fn upload(&self, id: &str) -> Result<Upload> {
@@ -313,35 +338,37 @@ impl Engine {
     /// Renders a request (what the pool's workers run).
     pub fn render(&self, req: &ViewRequest) -> Result<Output> {
         let spec = req.options.spec()?;
-        let renderer = self.renderer(&spec)?;
-        let clean = self.clean_image(&req.clean, req.size)?;
-        let depth = self.depth(&clean, &req.clean, &req.depth)?;
         let mut policy = DepthPolicy::render();
         if let Some((a, b)) = req.options.depth_scale {
             policy.scene_scale_m = (a as f32, b as f32);
         }
-        policy
-            .validate()
-            .map_err(|e| ServeError::BadRequest(e.to_string()))?;
+        let job = self.job(&spec, policy)?;
+        let clean = self.clean_image(&req.clean, req.size)?;
+        let depth = self.depth(&clean, &req.clean, &req.depth)?;
         // `uwnr render` with one clean image renders item 0 of its batch.
         let seed = uwnr_baselines::item_seed(req.options.seed, 0);
-        let response = policy.response(&depth, seed);
-        let prepared = if renderer.uses_reference() {
+        let prepared = if job.renderer().uses_reference() {
             let i = req.reference.ok_or_else(|| {
                 ServeError::BadRequest(format!(
                     "method {} needs a reference: select one",
                     spec.name()
                 ))
             })?;
-            Some(renderer.prepare_reference((*self.reference(i)?).clone())?)
+            // Decoding errors keep their own kind; the decoded image is shared, not copied.
+            let image = self.reference(i)?;
+            let prepared = job
+                .reference(&i.to_string(), || Ok(image))
+                .map_err(ServeError::BadRequest)?;
+            Some(prepared)
         } else {
             None
         };
-        let out = renderer.worker()?.render(
+        let out = job.worker()?.render(
             &clean,
-            &depth.map,
-            &response,
-            prepared.as_ref().map(uwnr_render::PreparedReference::input),
+            &depth,
+            prepared
+                .as_deref()
+                .map(uwnr_render::PreparedReference::input),
             seed,
         )?;
         let png = encode_rgb_png(&out.image).map_err(|e| ServeError::BadRequest(e.to_string()))?;

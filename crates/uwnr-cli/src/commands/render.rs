@@ -2,13 +2,14 @@
 //! image's own resolution, with the UWNR network (default), the UWGAN-style GAN baseline (no
 //! reference) or a physical / statistical baseline.
 
-use std::collections::HashMap;
 use std::path::Path;
 use std::process::ExitCode;
+use std::sync::Arc;
 
 use anyhow::{Context, Result, anyhow, bail};
+use uwnr_core::Image;
 use uwnr_core::io::{DecodeLimits, is_image_path, load_rgb, save_rgb};
-use uwnr_render::{PreparedReference, ReferenceUse, Renderer, Worker};
+use uwnr_render::{JobWorker, PreparedReference, ReferenceUse, RenderJob, Renderer};
 
 use crate::cli::RenderArgs;
 use crate::inputs::{Job, expand_images, plan_jobs};
@@ -89,36 +90,31 @@ pub fn run(a: &RenderArgs) -> Result<ExitCode> {
         a.baseline.depth_scale,
         uwnr_dataset::DepthPolicy::render(),
     );
-    policy.validate()?;
+    // Each reference is decoded (and its style computed) once, then reused by every clean image
+    // paired with it.
+    let render_job = RenderJob::new(Arc::new(renderer), policy, a.seed, refs.len())?;
 
     let limits = DecodeLimits::default();
-    // Each reference is decoded (and its light field computed) once, then reused by every
-    // clean image paired with it.
-    let mut ref_inputs: HashMap<usize, std::result::Result<PreparedReference, String>> =
-        HashMap::new();
-    let worker = renderer.worker()?;
+    let worker = render_job.worker()?;
     let mut batch = Batch::new(jobs.len(), "rendering");
     for (index, job) in jobs.iter().enumerate() {
         let clean_path = &cleans[job.clean];
         let reference = job.reference.map(|r| {
-            ref_inputs
-                .entry(r)
-                .or_insert_with(|| {
-                    reference_input(&refs[r], &renderer, &limits).map_err(|e| format!("{e:#}"))
+            let path = &refs[r];
+            render_job
+                .reference(&path.to_string_lossy(), || {
+                    reference_image(path, &limits).map_err(|e| format!("{e:#}"))
                 })
-                .as_ref()
                 .map_err(|msg| anyhow!("{msg}"))
         });
         let result = match reference.transpose() {
             Ok(r) => render_one(
                 clean_path,
-                r,
-                index,
+                r.as_deref(),
+                render_job.item_seed(index),
                 &job.output,
                 &prepared,
-                &policy,
                 &worker,
-                a.seed,
                 &limits,
                 &batch,
             ),
@@ -140,30 +136,22 @@ pub fn run(a: &RenderArgs) -> Result<ExitCode> {
     })
 }
 
-fn reference_input(
-    path: &Path,
-    renderer: &Renderer,
-    limits: &DecodeLimits,
-) -> Result<PreparedReference> {
-    let reference =
-        load_rgb(path, limits).with_context(|| format!("reading reference {}", path.display()))?;
-    renderer
-        .prepare_reference(reference)
-        .with_context(|| format!("style of {}", path.display()))
+fn reference_image(path: &Path, limits: &DecodeLimits) -> Result<Arc<Image>> {
+    load_rgb(path, limits)
+        .map(Arc::new)
+        .with_context(|| format!("reading reference {}", path.display()))
 }
 
-/// Renders job `index` of the batch: its random parameters (the baselines', the GAN's water
-/// code, a range's scene scale) are drawn from `item_seed(seed, index)`.
+/// Renders one item of the batch: its random parameters (the baselines', the GAN's water code, a
+/// range's scene scale) are drawn from `seed`, the item's.
 #[allow(clippy::too_many_arguments)]
 fn render_one(
     clean_path: &Path,
     reference: Option<&PreparedReference>,
-    index: usize,
+    seed: u64,
     output: &Path,
     depth: &uwnr_depth::PreparedDepth,
-    policy: &uwnr_dataset::DepthPolicy,
-    worker: &Worker<'_>,
-    seed: u64,
+    worker: &JobWorker<'_>,
     limits: &DecodeLimits,
     batch: &Batch,
 ) -> Result<()> {
@@ -172,13 +160,10 @@ fn render_one(
     for n in &depth.notes {
         batch.note(&format!("note: {}: {n}", clean_path.display()));
     }
-    let seed = uwnr_baselines::item_seed(seed, index);
-    let response = policy.response(&depth, seed);
     let out = worker
         .render(
             &clean,
-            &depth.map,
-            &response,
+            &depth,
             reference.map(PreparedReference::input),
             seed,
         )?

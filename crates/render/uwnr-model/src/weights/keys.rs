@@ -295,11 +295,9 @@ pub fn seeded_tensors(config: &GeneratorConfig, seed: u64) -> TensorMap {
     // SplitMix64: a fixed, dependency-free stream.
     let mut state = seed;
     let mut next = move || {
+        let z = uwnr_core::seed::mix(state);
         state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = state;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 40) as f32 / (1u64 << 24) as f32 * 2.0 - 1.0
+        (z >> 40) as f32 / (1u64 << 24) as f32 * 2.0 - 1.0
     };
     let mut map = TensorMap::new();
     let out = out_key(config).prefix;

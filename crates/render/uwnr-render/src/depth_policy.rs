@@ -1,6 +1,7 @@
-//! Depth in a dataset run: maps found beside the clean images (`X/rgb/` + `X/depth/`, as RGB-D
-//! sets are laid out), the scene scale drawn per pair, and how far the built-in prior is
-//! trusted.
+//! How a render job reads depth ([`DepthPolicy`]): maps found beside the clean images (`X/rgb/`
+//! + `X/depth/`, as RGB-D sets are laid out, in a dataset run), the scene scale drawn per item,
+//! and how far the built-in prior is trusted. `uwnr render`, the page and Python use
+//! [`DepthPolicy::render`]; a dataset the default.
 //!
 //! A dataset has no target to be faithful to: what counts is that its renders vary as real
 //! underwater scenes do. So, unlike `uwnr render`, a run
@@ -15,8 +16,9 @@ use serde::{Deserialize, Serialize};
 use uwnr_depth::DepthUnit;
 use uwnr_model::{DepthResponse, DepthScale};
 
-use crate::error::{DatasetError, Result};
-use crate::plan::mix;
+use uwnr_core::seed::mix;
+
+use crate::error::{RenderError, Result};
 
 /// Default range of the scene scale, metres: from a close-up (a diver's arm's length to a
 /// metre or two behind) to a reef or a room seen across (NYU-v2's measured maps span 3.5-6 m,
@@ -79,7 +81,7 @@ impl DepthPolicy {
     pub fn validate(&self) -> Result<()> {
         let (lo, hi) = self.scene_scale_m;
         if !(lo.is_finite() && hi.is_finite() && lo > 0.0 && lo <= hi) {
-            return Err(DatasetError::Invalid(format!(
+            return Err(RenderError::Invalid(format!(
                 "the scene scale range {lo},{hi} must be positive metres with MIN <= MAX"
             )));
         }
@@ -88,7 +90,7 @@ impl DepthPolicy {
             trust: self.prior_trust,
         }
         .validate()
-        .map_err(|e| DatasetError::Invalid(e.to_string()))
+        .map_err(|e| RenderError::Invalid(e.to_string()))
     }
 
     /// The scene scale of the pair with `seed`: uniform in the range, to the millimetre (the
