@@ -98,7 +98,7 @@ fn binomial_blur(plane: &[f32], w: usize, h: usize) -> Vec<f32> {
 }
 
 /// The clean image is RGB and the depth map one channel of its size.
-pub(crate) fn check_inputs(clean: &Image, depth: &Image) -> Result<()> {
+pub fn check_inputs(clean: &Image, depth: &Image) -> Result<()> {
     if clean.channels() != RGB {
         return Err(GanError::ShapeMismatch {
             what: "clean image channels",

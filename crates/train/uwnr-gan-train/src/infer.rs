@@ -5,7 +5,7 @@
 use burn::tensor::{Device, Tensor, TensorData};
 use uwnr_core::Image;
 
-use crate::error::{GanError, Result, to_vec};
+use crate::error::{Result, to_vec};
 use crate::imaging::{RGB, WaterParams};
 use crate::model::{Generator, sample_z};
 
@@ -46,20 +46,7 @@ pub fn render_with_values(
     seed: u64,
     device: &Device,
 ) -> Result<(Image, WaterValues)> {
-    if clean.channels() != RGB {
-        return Err(GanError::ShapeMismatch {
-            what: "clean image channels",
-            expected: vec![RGB],
-            got: vec![clean.channels()],
-        });
-    }
-    if depth.channels() != 1 || depth.size() != clean.size() {
-        return Err(GanError::ShapeMismatch {
-            what: "depth map (channels, width, height)",
-            expected: vec![1, clean.width(), clean.height()],
-            got: vec![depth.channels(), depth.width(), depth.height()],
-        });
-    }
+    uwnr_gan::imaging::check_inputs(clean, depth)?;
     let (w, h) = clean.size();
     let x = Tensor::<4>::from_data(
         TensorData::new(clean.data().to_vec(), [1, RGB, h, w]),
