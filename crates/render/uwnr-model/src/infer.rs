@@ -29,9 +29,8 @@ use uwnr_engine::Planar;
 
 use crate::config::{LEVELS, SIZE_MULTIPLE};
 use crate::error::{ModelError, Result};
-use crate::style::{
-    DepthResponse, ReferenceStyle, Variant, Water, anchor, finish, finish_uncorrected, water_anchor,
-};
+use crate::finish::{DepthResponse, finish, finish_uncorrected};
+use crate::style::{ReferenceStyle, Variant, Water, anchor, water_anchor};
 
 /// What tiled rendering needs of a generator implementation (the engine, or burn's module in
 /// the training wing), on planar `[c][h][w]` tensors of one image.

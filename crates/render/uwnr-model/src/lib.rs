@@ -8,9 +8,11 @@
 //! holds burn's module of the same network and hands it to a [`Network`] through
 //! [`Implementation`] to render with the same tiling code.
 
+pub mod blur;
 pub mod bundled;
 pub mod config;
 pub mod error;
+pub mod finish;
 pub mod infer;
 pub mod network;
 pub mod style;
@@ -21,11 +23,12 @@ pub mod weights;
 pub use bundled::{BUNDLED_MODEL_NAME, bundled_weights};
 pub use config::{AnchorKind, GeneratorConfig, LightFieldMap, gmacs, param_count};
 pub use error::{ModelError, Result};
+pub use finish::{DepthResponse, DepthScale};
 pub use infer::{Forward, RenderOptions};
 pub use network::{
     Backend, ENGINE_NAME, Implementation, Network, backend_from_name, backend_names,
 };
-pub use style::{DepthResponse, DepthScale, ReferenceStyle, Variant, Water};
+pub use style::{ReferenceStyle, Variant, Water};
 pub use weights::{
     LoadedWeights, NamedTensor, TensorMap, WeightsDtype, WeightsFormat, WeightsInfo,
     read_tensor_file, read_weights, read_weights_from_bytes, save_weights, write_tensor_file,

@@ -147,8 +147,7 @@ pub fn read_request(
                 .map_err(|_| bad("bad Content-Length"))?;
         }
     }
-    let (raw_path, raw_query) = target.split_once('?').unwrap_or((target, ""));
-    let path = percent_decode(raw_path);
+    let (path, query) = split_target(target);
     let limit = if path.starts_with("/api/upload") {
         max_upload
     } else {
@@ -168,14 +167,6 @@ pub fn read_request(
     reader
         .read_exact(&mut body)
         .map_err(|_| ReadError::Closed)?;
-    let query = raw_query
-        .split('&')
-        .filter(|p| !p.is_empty())
-        .map(|p| {
-            let (k, v) = p.split_once('=').unwrap_or((p, ""));
-            (percent_decode(k), percent_decode(v))
-        })
-        .collect();
     Ok(Request {
         method: method.to_string(),
         path,
@@ -184,31 +175,18 @@ pub fn read_request(
     })
 }
 
-/// Decodes `%XX` escapes and `+` (as a space, in queries); invalid escapes are kept as they are.
+/// A request target's path, `%XX`-decoded, and its query as `application/x-www-form-urlencoded`
+/// pairs (`+` is a space; empty pairs are skipped). Invalid escapes are kept as they are.
 #[must_use]
-pub fn percent_decode(s: &str) -> String {
-    let bytes = s.as_bytes();
-    let mut out = Vec::with_capacity(bytes.len());
-    let mut i = 0;
-    while i < bytes.len() {
-        match bytes[i] {
-            b'%' if i + 2 < bytes.len() => {
-                let hex = std::str::from_utf8(&bytes[i + 1..i + 3])
-                    .ok()
-                    .and_then(|h| u8::from_str_radix(h, 16).ok());
-                if let Some(b) = hex {
-                    out.push(b);
-                    i += 3;
-                    continue;
-                }
-                out.push(b'%');
-            }
-            b'+' => out.push(b' '),
-            b => out.push(b),
-        }
-        i += 1;
-    }
-    String::from_utf8_lossy(&out).into_owned()
+pub fn split_target(target: &str) -> (String, Vec<(String, String)>) {
+    let (raw_path, raw_query) = target.split_once('?').unwrap_or((target, ""));
+    let path = percent_encoding::percent_decode_str(raw_path)
+        .decode_utf8_lossy()
+        .into_owned();
+    let query = form_urlencoded::parse(raw_query.as_bytes())
+        .map(|(k, v)| (k.into_owned(), v.into_owned()))
+        .collect();
+    (path, query)
 }
 
 fn reason(status: u16) -> &'static str {
@@ -378,9 +356,16 @@ mod tests {
 
     #[test]
     fn percent_escapes_decode_and_bad_ones_stay() {
-        assert_eq!(percent_decode("a%20b+c"), "a b c");
-        assert_eq!(percent_decode("%2e%2E/x"), "../x");
-        assert_eq!(percent_decode("100%"), "100%");
-        assert_eq!(percent_decode("%zz"), "%zz");
+        let (path, query) = split_target("/api/%2e%2E/x?a=1%202+3&&b&c=100%&d=%zz");
+        assert_eq!(path, "/api/../x");
+        let pairs = |v: &[(&str, &str)]| -> Vec<(String, String)> {
+            v.iter().map(|(a, b)| (a.to_string(), b.to_string())).collect()
+        };
+        assert_eq!(
+            query,
+            pairs(&[("a", "1 2 3"), ("b", ""), ("c", "100%"), ("d", "%zz")])
+        );
+        // A `+` in the path is a `+`; in the query a space.
+        assert_eq!(split_target("/a+b").0, "/a+b");
     }
 }

@@ -6,9 +6,8 @@
 use burn::tensor::module::conv2d;
 use burn::tensor::ops::ConvOptions;
 use burn::tensor::{Tensor, TensorData};
-use uwnr_model::style::{
-    LOCAL_DEPTH_STRENGTH, MAX_GAIN, SMOOTH_SIGMA, blur_radius, gaussian_kernel, inside_mass,
-};
+use uwnr_model::blur::{blur_radius, gaussian_kernel, inside_mass};
+use uwnr_model::style::{LOCAL_DEPTH_STRENGTH, MAX_GAIN, SMOOTH_SIGMA};
 
 /// Gaussian blur of every channel, separable, with the kernel truncated at
 /// `uwnr_model::style::BLUR_TRUNCATE_SIGMAS` sigmas (and at the image size) and renormalised over the part
@@ -45,7 +44,7 @@ pub fn gaussian_blur(x: Tensor<4>, sigma: f64) -> Tensor<4> {
     blurred / Tensor::<4>::from_data(TensorData::new(norm, [1, 1, h, w]), &device)
 }
 
-/// `uwnr_model::style::finish` on a batch, differentiable (training), with each sample's reference at the
+/// `uwnr_model::finish::finish` on a batch, differentiable (training), with each sample's reference at the
 /// sample's own mean depth: in self-reconstruction the reference is the target, the same scene,
 /// so only the within-image part of the depth response acts.
 ///

@@ -72,7 +72,7 @@ pub fn dark_channel_loss(out: Tensor<4>, target: Tensor<4>, window: usize) -> Te
 }
 
 pub use crate::burn_style::gaussian_blur;
-pub use uwnr_model::style::gaussian_kernel;
+pub use uwnr_model::blur::gaussian_kernel;
 
 /// The paper's light-field map of a batch (Eq. 2-3 and the loss's `LF`), with the released
 /// map's geometry: the image is shrunk by [`LF_POOL`] (average pooling), blurred with

@@ -6,8 +6,9 @@ use burn::tensor::{Distribution, Tensor, TensorData};
 use uwnr_core::Image;
 use uwnr_core::lightfield::{LightFieldMap, light_field_for_with};
 use uwnr_core::resize::resize_bilinear;
+use uwnr_model::finish::finish;
 use uwnr_model::style::{
-    REFERENCE_DEPTH, anchor, colour_transfer, detail_share, estimate_water, finish, retain_detail,
+    REFERENCE_DEPTH, anchor, colour_transfer, detail_share, estimate_water, retain_detail,
 };
 use uwnr_model::{Backend, GeneratorConfig, ReferenceStyle, RenderOptions, Water};
 use uwnr_train::burn_style::finish_tensor;
