@@ -16,9 +16,8 @@ use uwnr_baselines::reinhard::transfer_to_stats;
 use uwnr_core::Image;
 use uwnr_core::io::{DecodeLimits, load_rgb};
 use uwnr_core::lightfield::{LightFieldMap, light_field_for_with};
-use uwnr_model::style::{
-    DepthResponse, anchor, colour_transfer, detail_share, estimate_water, finish, retain_detail,
-};
+use uwnr_model::finish::{DepthResponse, finish};
+use uwnr_model::style::{anchor, colour_transfer, detail_share, estimate_water, retain_detail};
 
 /// Trusts in the prior; 0.075 is the shipped one (`PRIOR_TRUST`).
 const TRUSTS: [f32; 7] = [0.0, 0.075, 0.15, 0.375, 0.75, 1.0, 1.5];

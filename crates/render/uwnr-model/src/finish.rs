@@ -4,16 +4,16 @@
 //! `N = A (1 + G) + O`, then every pixel moved towards the veil as its depth attenuates it,
 //! `I = B + (N - B) t(d) / t(d_ref)`.
 
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use uwnr_core::Image;
 
 use crate::blur::blur_plane;
 use crate::error::{ModelError, Result};
 use crate::style::{
-    DEFAULT_SCENE_SCALE_M, LOCAL_DEPTH_STRENGTH, MAX_GAIN, PRIOR_TRUST, REFERENCE_DEPTH,
-    REFERENCE_DISTANCE_M, SMOOTH_SIGMA, Water,
+    DEFAULT_SCENE_SCALE_M, MAX_GAIN, PRIOR_TRUST, REFERENCE_DEPTH, REFERENCE_DISTANCE_M,
+    SMOOTH_SIGMA, Water,
 };
+use crate::variant::ANCHORED_OUT_CHANNELS;
 
 /// What a depth map's values stand for (module doc).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -261,6 +261,7 @@ fn depth_stage(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::style::LOCAL_DEPTH_STRENGTH;
     use uwnr_baselines::reinhard::ChannelStats;
 
     #[test]

@@ -84,7 +84,6 @@
 //!   clear one a weak one. This is a one-image heuristic, not a fit; it is what makes the depth
 //!   response follow the reference.
 
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use uwnr_baselines::reinhard::{ChannelStats, reference_stats, transfer_to_stats};
 use uwnr_baselines::{BackgroundPick, ColourSpace, quadtree_background};

@@ -359,7 +359,9 @@ mod tests {
         let (path, query) = split_target("/api/%2e%2E/x?a=1%202+3&&b&c=100%&d=%zz");
         assert_eq!(path, "/api/../x");
         let pairs = |v: &[(&str, &str)]| -> Vec<(String, String)> {
-            v.iter().map(|(a, b)| (a.to_string(), b.to_string())).collect()
+            v.iter()
+                .map(|(a, b)| (a.to_string(), b.to_string()))
+                .collect()
         };
         assert_eq!(
             query,

@@ -20,8 +20,7 @@ pub use render::{
 pub use train::{
     DownstreamArgs, EnhanceAction, EnhanceApplyArgs, EnhanceArgs, EnhanceEvalArgs,
     EnhanceTrainArgs, ExperimentAction, ExperimentArgs, GanAction, GanArgs, GanLossArg,
-    GanTrainArgs, LightFieldLossArg, RunArgs, RunOpts, TrainArgs, WaterAction, WaterArgs,
-    WaterFitArgs,
+    GanTrainArgs, LightFieldLossArg, RunOpts, TrainArgs, WaterAction, WaterArgs, WaterFitArgs,
 };
 
 /// Render clean photos into realistic underwater images (UWNR) and build paired datasets.
