@@ -41,58 +41,28 @@ pub fn load_generator_from_bytes(bytes: &[u8], name: &Path) -> Result<Generator>
     let config = config_from_bytes(bytes, name)?;
     let st =
         SafeTensors::deserialize(bytes).map_err(|e| bad(format!("not a safetensors file: {e}")))?;
-    let mut used = Vec::new();
-    let mut tensor = |key: String, shape: &[usize]| -> Result<Vec<f32>> {
-        let view = st.tensor(&key).map_err(|_| {
-            bad(format!(
-                "tensors do not match the generator: {key} is missing"
-            ))
-        })?;
-        if view.shape() != shape {
-            return Err(bad(format!(
-                "tensors do not match the generator: {key} has shape {:?}, expected {shape:?}",
-                view.shape()
-            )));
-        }
-        if view.dtype() != Dtype::F32 {
-            return Err(bad(format!("{key} is {:?}, expected F32", view.dtype())));
-        }
-        used.push(key);
-        Ok(view
-            .data()
-            .chunks_exact(4)
-            .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
-            .collect())
+    let mut reader = Reader {
+        st: &st,
+        name,
+        used: Vec::new(),
     };
     let mut encoder = Vec::with_capacity(config.widths.len());
     let mut cin = ENCODER_IN;
     for (i, &cout) in config.widths.iter().enumerate() {
         encoder.push(Conv {
-            weight: tensor(format!("encoder.{i}.weight"), &[cout, cin, 3, 3])?,
-            bias: tensor(format!("encoder.{i}.bias"), &[cout])?,
+            weight: reader.tensor(format!("encoder.{i}.weight"), &[cout, cin, 3, 3])?,
+            bias: reader.tensor(format!("encoder.{i}.bias"), &[cout])?,
             cin,
             cout,
         });
         cin = cout;
     }
-    let linear = |tensor: &mut dyn FnMut(String, &[usize]) -> Result<Vec<f32>>,
-                  name: &str,
-                  din: usize,
-                  dout: usize|
-     -> Result<Linear> {
-        Ok(Linear {
-            weight: tensor(format!("{name}.weight"), &[din, dout])?,
-            bias: tensor(format!("{name}.bias"), &[dout])?,
-            din,
-            dout,
-        })
-    };
-    let hidden = linear(&mut tensor, "hidden", cin + config.z_dim, config.hidden)?;
-    let head = linear(&mut tensor, "head", config.hidden, RAW_PARAMS)?;
+    let hidden = reader.linear("hidden", cin + config.z_dim, config.hidden)?;
+    let head = reader.linear("head", config.hidden, RAW_PARAMS)?;
     let unexpected: Vec<String> = st
         .names()
         .into_iter()
-        .filter(|k| !used.iter().any(|u| u == k))
+        .filter(|k| !reader.used.iter().any(|u| u == k))
         .map(str::to_string)
         .collect();
     if !unexpected.is_empty() {
@@ -106,6 +76,58 @@ pub fn load_generator_from_bytes(bytes: &[u8], name: &Path) -> Result<Generator>
         head,
         config,
     })
+}
+
+/// Takes the tensors of a weights file by key, checking shape and dtype, and remembers which
+/// were taken.
+struct Reader<'a> {
+    st: &'a SafeTensors<'a>,
+    name: &'a Path,
+    used: Vec<String>,
+}
+
+impl Reader<'_> {
+    fn bad(&self, reason: String) -> GanError {
+        GanError::Weights {
+            path: self.name.to_path_buf(),
+            reason,
+        }
+    }
+
+    /// The f32 tensor `key` of `shape`.
+    fn tensor(&mut self, key: String, shape: &[usize]) -> Result<Vec<f32>> {
+        let view = self.st.tensor(&key).map_err(|_| {
+            self.bad(format!(
+                "tensors do not match the generator: {key} is missing"
+            ))
+        })?;
+        if view.shape() != shape {
+            return Err(self.bad(format!(
+                "tensors do not match the generator: {key} has shape {:?}, expected {shape:?}",
+                view.shape()
+            )));
+        }
+        if view.dtype() != Dtype::F32 {
+            return Err(self.bad(format!("{key} is {:?}, expected F32", view.dtype())));
+        }
+        let data = view
+            .data()
+            .chunks_exact(4)
+            .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+            .collect();
+        self.used.push(key);
+        Ok(data)
+    }
+
+    /// The linear layer `name` (`[din, dout]` weight, `[dout]` bias).
+    fn linear(&mut self, name: &str, din: usize, dout: usize) -> Result<Linear> {
+        Ok(Linear {
+            weight: self.tensor(format!("{name}.weight"), &[din, dout])?,
+            bias: self.tensor(format!("{name}.bias"), &[dout])?,
+            din,
+            dout,
+        })
+    }
 }
 
 fn read(path: &Path) -> Result<Vec<u8>> {

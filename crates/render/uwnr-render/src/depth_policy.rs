@@ -1,6 +1,6 @@
 //! How a render job reads depth ([`DepthPolicy`]): maps found beside the clean images (`X/rgb/`
-//! + `X/depth/`, as RGB-D sets are laid out, in a dataset run), the scene scale drawn per item,
-//! and how far the built-in prior is trusted. `uwnr render`, the page and Python use
+//! with `X/depth/`, as RGB-D sets are laid out, in a dataset run), the scene scale drawn per
+//! item, and how far the built-in prior is trusted. `uwnr render`, the page and Python use
 //! [`DepthPolicy::render`]; a dataset the default.
 //!
 //! A dataset has no target to be faithful to: what counts is that its renders vary as real

@@ -34,7 +34,7 @@ pub struct Cli {
 #[derive(Debug, Subcommand)]
 pub enum Command {
     /// Render clean images into underwater images styled after real underwater references.
-    Render(RenderArgs),
+    Render(Box<RenderArgs>),
     /// Compute the light-field map of a reference image (what the network sees of its style).
     Lightfield(LightfieldArgs),
     /// Compute the depth map a render would use for a clean image.
