@@ -60,6 +60,11 @@ pub enum DepthError {
     /// A depth map file that is not an image could not be read (`.npy`).
     #[error("depth map {path:?}: {reason}")]
     BadMapFile { path: PathBuf, reason: String },
+    /// A depth model was given to a build without the `onnx` feature.
+    #[error(
+        "depth model {path:?}: this build reads no ONNX models (build with the `onnx` feature, on by default for the `uwnr` binary)"
+    )]
+    NoOnnx { path: PathBuf },
     /// The ONNX model file does not exist.
     #[error("depth model {path:?}: no such file")]
     ModelNotFound { path: PathBuf },

@@ -20,7 +20,8 @@
 //! - [`DepthSource::Maps`]: maps the user provides (one file, or a directory matched by stem),
 //!   see the `maps` module docs;
 //! - [`DepthSource::Onnx`]: a monocular depth network the user brings (MiDaS, DPT, Depth
-//!   Anything...), run with tract, see [`onnx`].
+//!   Anything...), run with tract, see the `onnx` module (the `onnx` feature; without it the
+//!   source is refused in one line).
 //!
 //! ```
 //! use uwnr_depth::DepthSource;
@@ -37,6 +38,7 @@ pub mod builtin;
 pub mod error;
 mod maps;
 mod npy;
+#[cfg(feature = "onnx")]
 pub mod onnx;
 mod util;
 
@@ -52,6 +54,7 @@ pub use maps::{DepthUnit, beside_maps, fill_holes, partner_map, read_map};
 pub use npy::{is_npy_path, load_npy};
 
 use maps::MapSource;
+#[cfg(feature = "onnx")]
 use onnx::OnnxDepth;
 
 /// Where depth maps come from. Serialised with a `type` tag, e.g. `{"type": "Builtin"}` or
@@ -154,6 +157,7 @@ pub struct PreparedDepth {
 enum Prepared {
     Builtin,
     Maps(MapSource),
+    #[cfg(feature = "onnx")]
     Onnx(Box<OnnxDepth>),
 }
 
@@ -175,11 +179,18 @@ impl DepthSource {
                 normalize,
                 unit,
             } => Prepared::Maps(MapSource::new(path, *invert, *normalize, *unit, limits)?),
+            #[cfg(feature = "onnx")]
             Self::Onnx {
                 model,
                 invert,
                 input_size,
             } => Prepared::Onnx(Box::new(OnnxDepth::new(model, *invert, *input_size)?)),
+            #[cfg(not(feature = "onnx"))]
+            Self::Onnx { model, .. } => {
+                return Err(DepthError::NoOnnx {
+                    path: model.clone(),
+                });
+            }
         };
         Ok(PreparedDepth { inner })
     }
@@ -203,6 +214,7 @@ impl PreparedDepth {
                 let (map, notes, metric) = maps.depth_for(clean, clean_path)?;
                 (map, notes, metric, maps.normalizes())
             }
+            #[cfg(feature = "onnx")]
             Prepared::Onnx(model) => {
                 let (map, notes) = model.depth_for(clean)?;
                 (map, notes, None, true)

@@ -47,8 +47,12 @@ pub use depth::{DEPTH_BLOCK, FLAT_BLOCK_STD, depth_effect, far_near_contrast};
 pub use error::{MetricsError, Result};
 pub use features::{
     COLOR_TEXTURE_DIM, COLOR_TEXTURE_WORKING_SIZE, ColorTextureFeatures, FeatureExtractor,
+    extract_all,
+};
+#[cfg(feature = "onnx")]
+pub use features::{
     INCEPTION_INPUT_SIDE, INCEPTION_POOL3_DIM, InceptionInputRange, OnnxInception,
-    OnnxInceptionOptions, extract_all,
+    OnnxInceptionOptions,
 };
 pub use frechet::{FeatureStats, frechet_distance, frechet_distance_from_stats};
 pub use kid::{KID_SUBSET_SIZE, KID_SUBSETS, kid};

@@ -18,7 +18,7 @@ use serde_json::json;
 use uwnr_core::Image;
 use uwnr_core::io::{DecodeLimits, load_rgb, write_atomic};
 use uwnr_metrics::{
-    ColorTextureFeatures, FeatureExtractor, KID_SUBSET_SIZE, KID_SUBSETS, OnnxInception,
+    ColorTextureFeatures, FeatureExtractor, KID_SUBSET_SIZE, KID_SUBSETS,
     frechet_distance, kid, psnr, psnr_gray, ssim, ssim_gray, uciqe, uiqm,
 };
 
@@ -168,11 +168,7 @@ fn no_reference(
     let files = expand_images(&[dir.to_path_buf()], "image")?;
     let extractor: Option<Box<dyn FeatureExtractor>> = match (&a.real, &a.inception) {
         (None, _) => None,
-        (Some(_), Some(model)) => {
-            Some(Box::new(OnnxInception::load(model).with_context(|| {
-                format!("loading Inception model {}", model.display())
-            })?))
-        }
+        (Some(_), Some(model)) => Some(inception(model)?),
         (Some(_), None) => Some(Box::new(ColorTextureFeatures::new())),
     };
     let batch = Mutex::new(Batch::new(files.len(), "scoring"));
@@ -366,4 +362,22 @@ fn write_csv(path: &Path, rows: &[Row]) -> Result<()> {
     }
     write_atomic(path, |w| w.write_all(text.as_bytes()))
         .with_context(|| format!("writing {}", path.display()))
+}
+
+/// The user's InceptionV3 ONNX model (`--inception`).
+#[cfg(feature = "onnx")]
+fn inception(model: &Path) -> Result<Box<dyn FeatureExtractor>> {
+    Ok(Box::new(
+        uwnr_metrics::OnnxInception::load(model)
+            .with_context(|| format!("loading Inception model {}", model.display()))?,
+    ))
+}
+
+/// `--inception` in a build without ONNX models.
+#[cfg(not(feature = "onnx"))]
+fn inception(model: &Path) -> Result<Box<dyn FeatureExtractor>> {
+    bail!(
+        "{}: this build reads no ONNX models (build with the `onnx` feature, on by default)",
+        model.display()
+    )
 }

@@ -2,5 +2,6 @@
 
 mod builtin;
 mod maps;
+#[cfg(feature = "onnx")]
 mod onnx;
 mod rgbd_eval;

@@ -6,6 +6,7 @@
 //!   Fréchet distance on it is reported as FD-ct, never as FID.
 
 mod color_texture;
+#[cfg(feature = "onnx")]
 mod inception;
 
 use rayon::prelude::*;
@@ -14,6 +15,7 @@ use uwnr_core::Image;
 use crate::error::Result;
 
 pub use color_texture::{COLOR_TEXTURE_DIM, COLOR_TEXTURE_WORKING_SIZE, ColorTextureFeatures};
+#[cfg(feature = "onnx")]
 pub use inception::{
     INCEPTION_INPUT_SIDE, INCEPTION_POOL3_DIM, InceptionInputRange, OnnxInception,
     OnnxInceptionOptions,

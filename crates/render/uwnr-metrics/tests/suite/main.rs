@@ -3,6 +3,7 @@
 #[allow(dead_code)]
 mod common;
 mod distances;
+#[cfg(feature = "onnx")]
 mod inception_onnx;
 mod reference_values;
 mod shared_data;
