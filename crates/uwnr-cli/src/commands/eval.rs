@@ -18,8 +18,8 @@ use serde_json::json;
 use uwnr_core::Image;
 use uwnr_core::io::{DecodeLimits, load_rgb, write_atomic};
 use uwnr_metrics::{
-    ColorTextureFeatures, FeatureExtractor, KID_SUBSET_SIZE, KID_SUBSETS,
-    frechet_distance, kid, psnr, psnr_gray, ssim, ssim_gray, uciqe, uiqm,
+    ColorTextureFeatures, FeatureExtractor, KID_SUBSET_SIZE, KID_SUBSETS, frechet_distance, kid,
+    psnr, psnr_gray, ssim, ssim_gray, uciqe, uiqm,
 };
 
 use crate::cli::EvalArgs;
