@@ -11,13 +11,13 @@
 //!    `i`, as `uwnr render` numbers them; a dataset passes its pair seeds);
 //! 4. the render.
 
-use std::collections::VecDeque;
 use std::sync::{Arc, Mutex, OnceLock, PoisonError};
 
 use uwnr_core::Image;
 
 use crate::depth_policy::DepthPolicy;
 use crate::error::{RenderError, Result};
+use crate::lru::Lru;
 use crate::renderer::{PreparedReference, ReferenceInput, Rendered, Renderer, Worker};
 
 /// A prepared reference, or why it could not be prepared (kept, so that a bad reference is
@@ -29,9 +29,8 @@ pub struct RenderJob {
     renderer: Arc<Renderer>,
     policy: DepthPolicy,
     seed: u64,
-    /// Prepared references by the caller's key, the most recently used last.
-    references: Mutex<VecDeque<(String, Arc<OnceLock<Prepared>>)>>,
-    kept: usize,
+    /// Prepared references by the caller's key.
+    references: Mutex<Lru<String, Arc<OnceLock<Prepared>>>>,
 }
 
 impl RenderJob {
@@ -50,8 +49,7 @@ impl RenderJob {
             renderer,
             policy,
             seed,
-            references: Mutex::new(VecDeque::new()),
-            kept: kept.max(1),
+            references: Mutex::new(Lru::new(kept.max(1))),
         })
     }
 
@@ -85,15 +83,8 @@ impl RenderJob {
                 .references
                 .lock()
                 .unwrap_or_else(PoisonError::into_inner);
-            let cell = match refs.iter().position(|(k, _)| k == key) {
-                Some(i) => refs.remove(i).map(|(_, c)| c),
-                None => None,
-            }
-            .unwrap_or_default();
-            refs.push_back((key.to_string(), Arc::clone(&cell)));
-            while refs.len() > self.kept {
-                refs.pop_front();
-            }
+            let cell = refs.get(&key.to_string()).unwrap_or_default();
+            refs.put(key.to_string(), Arc::clone(&cell));
             cell
         };
         // Prepared outside the lock: other references are prepared meanwhile, and threads

@@ -30,6 +30,7 @@ pub mod depth_policy;
 pub mod error;
 pub mod haze;
 pub mod job;
+pub mod lru;
 pub mod method;
 pub mod record;
 pub mod renderer;

@@ -14,6 +14,7 @@ use uwnr_core::resize::fit_within;
 use uwnr_dataset::DepthPolicy;
 use uwnr_dataset::plan::ReferenceOrder;
 use uwnr_depth::{DepthSource, DepthUnit};
+use uwnr_render::lru::Lru;
 use uwnr_render::{MethodSpec, RenderJob, Renderer};
 
 use crate::ServeConfig;
@@ -46,37 +47,6 @@ const MAX_PAGE: usize = 100;
 const INDEX_HTML: &str = include_str!("../assets/index.html");
 const APP_JS: &str = include_str!("../assets/app.js");
 const STYLE_CSS: &str = include_str!("../assets/style.css");
-
-/// A small map that forgets its oldest entries beyond a count.
-struct Lru<K, V> {
-    cap: usize,
-    items: VecDeque<(K, V)>,
-}
-
-impl<K: PartialEq, V: Clone> Lru<K, V> {
-    fn new(cap: usize) -> Self {
-        Self {
-            cap,
-            items: VecDeque::new(),
-        }
-    }
-
-    fn get(&mut self, k: &K) -> Option<V> {
-        let i = self.items.iter().position(|(x, _)| x == k)?;
-        let item = self.items.remove(i)?;
-        let v = item.1.clone();
-        self.items.push_back(item);
-        Some(v)
-    }
-
-    fn put(&mut self, k: K, v: V) {
-        self.items.retain(|(x, _)| x != &k);
-        self.items.push_back((k, v));
-        while self.items.len() > self.cap {
-            self.items.pop_front();
-        }
-    }
-}
 
 fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
     m.lock().unwrap_or_else(PoisonError::into_inner)
