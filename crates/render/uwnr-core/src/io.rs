@@ -91,11 +91,38 @@ pub fn load_rgb_from_memory(bytes: &[u8], limits: &DecodeLimits) -> Result<Image
     to_planar(&decoded, Target::Rgb)
 }
 
+/// An encoded image's width, height and bytes per decoded pixel (its sample layout as stored),
+/// from the header alone: what decoding it will allocate, known before any pixel is decoded.
+pub fn probe_memory(bytes: &[u8]) -> Result<(u32, u32, u64)> {
+    let path = Path::new(MEMORY_SOURCE);
+    let decoder = ImageReader::new(Cursor::new(bytes))
+        .with_guessed_format()
+        .map_err(|e| decode_error(path, e.to_string()))?
+        .into_decoder()
+        .map_err(|e| decode_error(path, e.to_string()))?;
+    let (w, h) = decoder.dimensions();
+    Ok((w, h, u64::from(decoder.color_type().bytes_per_pixel())))
+}
+
+/// Decodes an encoded image held in memory with the checks of [`load_rgb_from_memory`], without
+/// converting its pixels: its `(width, height)`. What accepting a file needs, in the decoded
+/// size as stored (3 bytes a pixel for 8-bit RGB) instead of 12 more for planar f32.
+pub fn check_decodes(bytes: &[u8], limits: &DecodeLimits) -> Result<(usize, usize)> {
+    let decoded = decode(bytes, Path::new(MEMORY_SOURCE), limits)?;
+    Ok((decoded.width() as usize, decoded.height() as usize))
+}
+
 /// Decodes an image file into 1 channel: the raw code value over the maximum code (8-bit `/255`,
 /// 16-bit `/65535`). Colour images are converted to ITU-R 601 luma as PIL's `convert("L")` does.
 pub fn load_gray(path: &Path, limits: &DecodeLimits) -> Result<Image> {
     let bytes = read_file(path)?;
     let decoded = decode(&bytes, path, limits)?;
+    to_planar(&decoded, Target::Gray)
+}
+
+/// Decodes an encoded grey map held in memory (as [`load_gray`]).
+pub fn load_gray_from_memory(bytes: &[u8], limits: &DecodeLimits) -> Result<Image> {
+    let decoded = decode(bytes, Path::new(MEMORY_SOURCE), limits)?;
     to_planar(&decoded, Target::Gray)
 }
 
@@ -105,7 +132,16 @@ pub fn load_gray(path: &Path, limits: &DecodeLimits) -> Result<Image> {
 /// depth maps need the codes themselves (16-bit millimetres), not [`load_gray`]'s fraction.
 pub fn load_gray_codes(path: &Path, limits: &DecodeLimits) -> Result<(Image, f32)> {
     let bytes = read_file(path)?;
-    let decoded = decode(&bytes, path, limits)?;
+    gray_codes(&bytes, path, limits)
+}
+
+/// Decodes an encoded grey map held in memory into its raw codes (as [`load_gray_codes`]).
+pub fn load_gray_codes_from_memory(bytes: &[u8], limits: &DecodeLimits) -> Result<(Image, f32)> {
+    gray_codes(bytes, Path::new(MEMORY_SOURCE), limits)
+}
+
+fn gray_codes(bytes: &[u8], path: &Path, limits: &DecodeLimits) -> Result<(Image, f32)> {
+    let decoded = decode(bytes, path, limits)?;
     let max_code = match decoded.color().bytes_per_pixel() / decoded.color().channel_count() {
         1 => f32::from(u8::MAX),
         2 => f32::from(u16::MAX),

@@ -50,7 +50,7 @@ use uwnr_core::io::DecodeLimits;
 
 pub use builtin::builtin_depth;
 pub use error::{DepthError, Result};
-pub use maps::{DepthUnit, beside_maps, fill_holes, partner_map, read_map};
+pub use maps::{DepthUnit, beside_maps, fill_holes, partner_map, read_map, read_map_bytes};
 pub use npy::{is_npy_path, load_npy};
 
 use maps::MapSource;

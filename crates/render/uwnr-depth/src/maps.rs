@@ -27,11 +27,14 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 use uwnr_core::Image;
-use uwnr_core::io::{DecodeLimits, is_image_path, load_gray, load_gray_codes};
+use uwnr_core::io::{
+    DecodeLimits, is_image_path, load_gray, load_gray_codes, load_gray_codes_from_memory,
+    load_gray_from_memory,
+};
 use uwnr_core::resize::resize_bilinear;
 
 use crate::error::{DepthError, Result};
-use crate::npy::{is_npy_path, load_npy};
+use crate::npy::{is_npy_path, load_npy, parse_npy};
 use crate::util::{check_not_empty, normalise_min_max};
 
 /// What the values stored in a depth map file mean.
@@ -181,6 +184,13 @@ impl MapSource {
     }
 }
 
+/// Where a map's bytes come from: a file, or bytes already read (named in messages).
+#[derive(Clone, Copy)]
+enum MapInput<'a> {
+    File(&'a Path),
+    Memory { bytes: &'a [u8], name: &'a Path },
+}
+
 /// Reads one map file as stored: metres for a metric unit, the fraction of the largest code
 /// otherwise; holes filled for metric and normalised maps (module doc).
 fn read_stored(
@@ -189,15 +199,51 @@ fn read_stored(
     normalize: bool,
     limits: &DecodeLimits,
 ) -> Result<Image> {
-    let mut map = match (unit.metres_per_code(), is_npy_path(path)) {
-        (None, false) => load_gray(path, limits)?,
-        (None, true) => load_npy(path, limits)?.0,
-        (Some(per_code), npy) => {
-            let (mut codes, _) = if npy {
-                load_npy(path, limits)?
-            } else {
-                load_gray_codes(path, limits)?
-            };
+    read_input(MapInput::File(path), unit, normalize, limits)
+}
+
+fn read_input(
+    input: MapInput<'_>,
+    unit: DepthUnit,
+    normalize: bool,
+    limits: &DecodeLimits,
+) -> Result<Image> {
+    let path = match input {
+        MapInput::File(p) | MapInput::Memory { name: p, .. } => p,
+    };
+    let in_memory = |e: uwnr_core::CoreError| DepthError::BadMapFile {
+        path: path.to_path_buf(),
+        reason: e.to_string().replace("\"<memory>\": ", ""),
+    };
+    let npy = is_npy_path(path);
+    let gray = || -> Result<Image> {
+        match input {
+            MapInput::File(p) => Ok(load_gray(p, limits)?),
+            MapInput::Memory { bytes, .. } => {
+                load_gray_from_memory(bytes, limits).map_err(in_memory)
+            }
+        }
+    };
+    let codes = || -> Result<(Image, f32)> {
+        match (input, npy) {
+            (MapInput::File(p), true) => load_npy(p, limits),
+            (MapInput::File(p), false) => Ok(load_gray_codes(p, limits)?),
+            (MapInput::Memory { bytes, .. }, true) => {
+                parse_npy(bytes, limits).map_err(|reason| DepthError::BadMapFile {
+                    path: path.to_path_buf(),
+                    reason,
+                })
+            }
+            (MapInput::Memory { bytes, .. }, false) => {
+                load_gray_codes_from_memory(bytes, limits).map_err(in_memory)
+            }
+        }
+    };
+    let mut map = match (unit.metres_per_code(), npy) {
+        (None, false) => gray()?,
+        (None, true) => codes()?.0,
+        (Some(per_code), _) => {
+            let (mut codes, _) = codes()?;
             for v in codes.plane_mut(0) {
                 *v *= per_code;
             }
@@ -225,7 +271,28 @@ pub fn read_map(
     normalize: bool,
     limits: &DecodeLimits,
 ) -> Result<(Image, Vec<String>, Option<f32>)> {
-    let (w, h) = clean_size;
+    check_request(clean_size, unit, normalize)?;
+    let map = read_stored(path, unit, normalize, limits)?;
+    shape_map(&map, path, clean_size, unit, normalize, false)
+}
+
+/// [`read_map`] for a map already read into memory (`name`, whose extension says whether it is
+/// a `.npy` array, is what messages and notes call it).
+pub fn read_map_bytes(
+    bytes: &[u8],
+    name: &Path,
+    clean_size: (usize, usize),
+    unit: DepthUnit,
+    normalize: bool,
+    limits: &DecodeLimits,
+) -> Result<(Image, Vec<String>, Option<f32>)> {
+    check_request(clean_size, unit, normalize)?;
+    let map = read_input(MapInput::Memory { bytes, name }, unit, normalize, limits)?;
+    shape_map(&map, name, clean_size, unit, normalize, false)
+}
+
+/// Refuses an empty clean image and a metric unit asked to be normalised.
+fn check_request((w, h): (usize, usize), unit: DepthUnit, normalize: bool) -> Result<()> {
     if w == 0 || h == 0 {
         return Err(DepthError::EmptyImage {
             width: w,
@@ -237,8 +304,7 @@ pub fn read_map(
             option: "normalize",
         });
     }
-    let map = read_stored(path, unit, normalize, limits)?;
-    shape_map(&map, path, clean_size, unit, normalize, false)
+    Ok(())
 }
 
 /// A stored map brought to the clean image's size and uwnr's convention (module doc).

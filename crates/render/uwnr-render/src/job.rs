@@ -29,6 +29,8 @@ pub struct RenderJob {
     renderer: Arc<Renderer>,
     policy: DepthPolicy,
     seed: u64,
+    /// How many prepared references are kept.
+    kept: usize,
     /// Prepared references by the caller's key.
     references: Mutex<Lru<String, Arc<OnceLock<Prepared>>>>,
 }
@@ -49,8 +51,20 @@ impl RenderJob {
             renderer,
             policy,
             seed,
+            kept: kept.max(1),
             references: Mutex::new(Lru::new(kept.max(1))),
         })
+    }
+
+    /// The same job keeping its prepared references within `bytes` as well (their decoded images
+    /// and styles, [`PreparedReference::bytes`]); one larger than that alone is prepared for
+    /// each render that asks for it.
+    #[must_use]
+    pub fn with_kept_bytes(self, bytes: u64) -> Self {
+        Self {
+            references: Mutex::new(Lru::with_bytes(self.kept, bytes)),
+            ..self
+        }
     }
 
     /// The method.
@@ -89,14 +103,25 @@ impl RenderJob {
         };
         // Prepared outside the lock: other references are prepared meanwhile, and threads
         // asking for this one wait for the first.
-        cell.get_or_init(|| {
-            let image = load()?;
-            self.renderer
-                .prepare_reference(image)
-                .map(Arc::new)
-                .map_err(|e| e.to_string())
-        })
-        .clone()
+        let mut fresh = false;
+        let prepared = cell
+            .get_or_init(|| {
+                fresh = true;
+                let image = load()?;
+                self.renderer
+                    .prepare_reference(image)
+                    .map(Arc::new)
+                    .map_err(|e| e.to_string())
+            })
+            .clone();
+        if fresh {
+            let bytes = prepared.as_ref().map_or(0, |p| p.bytes());
+            self.references
+                .lock()
+                .unwrap_or_else(PoisonError::into_inner)
+                .set_size(&key.to_string(), bytes);
+        }
+        prepared
     }
 
     /// A per-thread handle.
@@ -178,6 +203,37 @@ mod tests {
         }
         // a, b; a kept (recent); c drops b; a kept; b again: 4 loads.
         assert_eq!(loads.load(Ordering::SeqCst), 4);
+    }
+
+    #[test]
+    fn prepared_references_are_kept_within_their_bytes() {
+        // Reinhard keeps the decoded image: 8x8x3 f32 = 768 bytes each.
+        let job = job(MethodKind::Reinhard, 10).with_kept_bytes(1600);
+        let loads = AtomicUsize::new(0);
+        let load = |side: usize| {
+            let loads = &loads;
+            move || {
+                loads.fetch_add(1, Ordering::SeqCst);
+                Ok(Arc::new(Image::filled(side, side, 3, 0.3)))
+            }
+        };
+        assert_eq!(job.reference("a", load(8)).unwrap().bytes(), 768);
+        job.reference("b", load(8)).unwrap();
+        job.reference("a", load(8)).unwrap();
+        assert_eq!(loads.load(Ordering::SeqCst), 2, "two fit");
+        job.reference("c", load(8)).unwrap();
+        job.reference("b", load(8)).unwrap();
+        assert_eq!(
+            loads.load(Ordering::SeqCst),
+            4,
+            "the third drops the least recent (b)"
+        );
+        // 16x16x3 f32 = 3 kB: larger than the bound, prepared again each time, and the others
+        // stay.
+        job.reference("big", load(16)).unwrap();
+        job.reference("big", load(16)).unwrap();
+        job.reference("b", load(8)).unwrap();
+        assert_eq!(loads.load(Ordering::SeqCst), 6);
     }
 
     #[test]

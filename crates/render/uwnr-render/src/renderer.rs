@@ -74,6 +74,18 @@ pub struct PreparedReference {
 }
 
 impl PreparedReference {
+    /// Bytes it holds: the decoded image (shared with whoever else holds it) and the style's
+    /// maps.
+    #[must_use]
+    pub fn bytes(&self) -> u64 {
+        let image = self.image.as_ref().map_or(0, |i| i.data().len());
+        let style = self
+            .style
+            .as_ref()
+            .map_or(0, |s| s.light_field.data().len());
+        ((image + style) * std::mem::size_of::<f32>()) as u64
+    }
+
     /// The reference as a render takes it.
     #[must_use]
     pub fn input(&self) -> ReferenceInput<'_> {

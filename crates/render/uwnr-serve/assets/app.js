@@ -6,6 +6,8 @@ const WATER_TYPES = ["I", "IA", "IB", "II", "III", "1C", "3C", "5C", "7C", "9C"]
 const REF_PAGE = 16;
 const MAX_ROWS = 4;
 const POLL_MS = 150;
+// This page's own name for its views: another tab's renders never make this one's stale.
+const PAGE_ID = `${Date.now().toString(36)}-${Math.random().toString(36).slice(2, 10)}`;
 
 const state = {
   info: null,
@@ -180,7 +182,7 @@ function setCellState(cell, st, text) {
 function requestFor(cell, size) {
   const k = Number($("draw-k").value) || 1;
   return {
-    view: size === "full" ? `${cell.el.dataset.key}|full` : cell.el.dataset.key,
+    view: `${PAGE_ID}|${size === "full" ? `${cell.el.dataset.key}|full` : cell.el.dataset.key}`,
     clean: cleanSource(),
     depth: depthChoice(),
     reference: cell.ref,
@@ -244,6 +246,11 @@ async function renderCell(key) {
     cell.el.dataset.job = String(answer.job);
   } else if (status.state === "failed") {
     setCellState(cell, "failed", status.error);
+  } else if (status.state === "stale") {
+    // Replaced by a newer request for this cell that this page did not make (it would have
+    // changed the cell's token): render again rather than wait.
+    setCellState(cell, "queued", "replaced; rendering again");
+    renderCell(key);
   }
 }
 

@@ -32,9 +32,35 @@ pub enum ServeError {
         "the upload is {got} bytes, more than the {max} bytes this server accepts (--max-upload-mb)"
     )]
     TooLarge { got: u64, max: u64 },
-    /// An image that cannot be decoded or exceeds the limits.
+    /// An image sent by the client (a dropped file) that cannot be decoded or exceeds the
+    /// limits.
     #[error("{what}: {reason}")]
     BadImage { what: String, reason: String },
+    /// A file of the server's own folders (or a dropped file it kept) that cannot be read or
+    /// decoded: the server's failure, not the request's. The message names the file as the
+    /// page knows it, never a temporary path.
+    #[error("{what}: {reason}")]
+    ServerFile { what: String, reason: String },
+    /// Something needs more bytes than the server's whole memory budget.
+    #[error(
+        "{what} needs {bytes} bytes, more than this server's memory budget of {budget} bytes (--memory-mb)"
+    )]
+    TooBig {
+        what: String,
+        bytes: u64,
+        budget: u64,
+    },
+    /// The memory budget is in use by other requests now.
+    #[error(
+        "the server is busy ({what} needs {bytes} bytes of memory in use by other requests); try again in a moment"
+    )]
+    NoMemory { what: String, bytes: u64 },
+    /// A request refused by the local-only guard (Host, Origin, token).
+    #[error("{0}")]
+    Forbidden(String),
+    /// A known path asked with a method it does not answer.
+    #[error("{method} is not allowed here (allowed: {allow})")]
+    MethodNotAllowed { method: String, allow: &'static str },
     /// A request the server cannot read (bad JSON, bad option, unknown route).
     #[error("{0}")]
     BadRequest(String),
@@ -61,12 +87,13 @@ impl ServeError {
     #[must_use]
     pub fn status(&self) -> u16 {
         match self {
-            Self::OutsideRoot { .. } => 403,
+            Self::OutsideRoot { .. } | Self::Forbidden(_) => 403,
+            Self::MethodNotAllowed { .. } => 405,
             Self::UnknownIndex { .. } | Self::NotFound { .. } | Self::Missing(_) => 404,
-            Self::TooLarge { .. } => 413,
+            Self::TooLarge { .. } | Self::TooBig { .. } => 413,
             Self::BadImage { .. } | Self::BadRequest(_) => 400,
-            Self::Busy { .. } => 503,
-            Self::Root { .. } | Self::Render(_) | Self::Io { .. } => 500,
+            Self::Busy { .. } | Self::NoMemory { .. } => 503,
+            Self::Root { .. } | Self::ServerFile { .. } | Self::Render(_) | Self::Io { .. } => 500,
         }
     }
 

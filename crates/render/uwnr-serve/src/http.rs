@@ -1,25 +1,58 @@
-//! A small HTTP/1.1 server on std's `TcpListener`: one request per connection
-//! (`Connection: close`), bounded header and body sizes, a fixed set of handler threads fed by a
-//! bounded queue of connections. A connection that finds the queue full is answered `503` at
-//! once, so a burst of clients costs at most the queue's sockets, never a thread each.
+//! The page's HTTP/1.1 server: hyper on a one-thread tokio runtime for the connections, the
+//! handlers on a fixed number of blocking threads.
+//!
+//! hyper reads and checks requests (methods, versions, `Content-Length` and chunked bodies,
+//! conflicting lengths refused, `HEAD` answered without a body) and writes responses; this
+//! module adds the limits:
+//! - connections: at most [`HttpLimits::connections`] open; beyond, a connection is answered
+//!   `503` by a task of its own (at most [`REFUSERS`] at once, further ones are closed), so the
+//!   accept loop never waits on a client;
+//! - time: the request head must arrive within [`HEADER_DEADLINE`], the body within
+//!   [`BODY_DEADLINE`], the whole exchange within [`CONNECTION_DEADLINE`]; a slow or idle client
+//!   costs a task and a socket until then, never a handler thread;
+//! - bodies: at most [`HttpLimits::max_upload`] bytes to `/api/upload`, [`HttpLimits::small_body`]
+//!   elsewhere (`413`, before reading when the length is declared); an upload's bytes are taken
+//!   from the server's memory [`Budget`] before it is read (`503` when they are in use);
+//! - handlers: at most [`HttpLimits::handlers`] run at once; a request that waits
+//!   [`HANDLER_WAIT`] for one is answered `503`.
+//!
+//! Every answer closes its connection (`Connection: close`).
 
-use std::io::{BufRead, BufReader, Read, Write};
-use std::net::{TcpListener, TcpStream};
+use std::convert::Infallible;
+use std::net::{SocketAddr, TcpListener};
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::mpsc::{Receiver, SyncSender, TrySendError, sync_channel};
-use std::sync::{Mutex, PoisonError};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
+use bytes::Bytes;
+use http_body_util::{BodyExt, Full, LengthLimitError, Limited};
+use hyper::body::{Body as _, Incoming};
+use hyper::header::{HeaderMap, HeaderValue};
+use hyper::server::conn::http1;
+use hyper::service::service_fn;
+use hyper_util::rt::{TokioIo, TokioTimer};
 use serde_json::json;
+use tokio::io::AsyncWriteExt;
+use tokio::sync::{Notify, Semaphore};
 
-/// Largest request line plus headers, bytes.
+use crate::budget::{Budget, Lease};
+
+/// Largest request head (request line and headers), bytes: hyper's read buffer.
 pub const MAX_HEADER_BYTES: usize = 16 * 1024;
-/// How long a connection may take to send its request or read the answer.
-const IO_TIMEOUT: Duration = Duration::from_secs(20);
+/// How long a client may take to send the request head.
+pub const HEADER_DEADLINE: Duration = Duration::from_secs(10);
+/// How long a client may take to send the body (25 MB at 1 MB/s fits).
+pub const BODY_DEADLINE: Duration = Duration::from_secs(60);
+/// How long a whole exchange may take, reading the answer included.
+pub const CONNECTION_DEADLINE: Duration = Duration::from_secs(180);
+/// How long a request waits for a free handler before it is answered `503`.
+pub const HANDLER_WAIT: Duration = Duration::from_secs(10);
+/// Connections being refused with `503` at once; beyond, they are closed unanswered.
+pub const REFUSERS: usize = 64;
+/// How long writing a refusal may take.
+const REFUSAL_DEADLINE: Duration = Duration::from_secs(2);
 
-/// A parsed request.
+/// A request as the routes see it.
 #[derive(Debug)]
 pub struct Request {
     /// `GET`, `POST`, ...
@@ -28,11 +61,26 @@ pub struct Request {
     pub path: String,
     /// Query parameters, percent-decoded, in order.
     pub query: Vec<(String, String)>,
+    /// The headers as sent.
+    pub headers: HeaderMap,
     /// The body (empty for requests without one).
-    pub body: Vec<u8>,
+    pub body: Bytes,
 }
 
 impl Request {
+    /// A request without headers or body (tests and in-process callers).
+    #[must_use]
+    pub fn new(method: &str, target: &str) -> Self {
+        let (path, query) = split_target(target);
+        Self {
+            method: method.to_string(),
+            path,
+            query,
+            headers: HeaderMap::new(),
+            body: Bytes::new(),
+        }
+    }
+
     /// The first query parameter named `name`.
     #[must_use]
     pub fn param(&self, name: &str) -> Option<&str> {
@@ -40,6 +88,12 @@ impl Request {
             .iter()
             .find(|(k, _)| k == name)
             .map(|(_, v)| v.as_str())
+    }
+
+    /// The header `name` as text (absent, or not visible ASCII: `None`).
+    #[must_use]
+    pub fn header(&self, name: &str) -> Option<&str> {
+        self.headers.get(name).and_then(|v| v.to_str().ok())
     }
 }
 
@@ -88,92 +142,35 @@ impl Response {
         self.headers.push((name, value));
         self
     }
+
+    fn into_hyper(self) -> hyper::Response<Full<Bytes>> {
+        let mut r = hyper::Response::new(Full::new(Bytes::from(self.body)));
+        *r.status_mut() = hyper::StatusCode::from_u16(self.status)
+            .unwrap_or(hyper::StatusCode::INTERNAL_SERVER_ERROR);
+        let h = r.headers_mut();
+        h.insert("content-type", HeaderValue::from_static(self.content_type));
+        for (k, v) in STANDARD_HEADERS {
+            h.insert(*k, HeaderValue::from_static(v));
+        }
+        for (k, v) in self.headers {
+            if let Ok(v) = HeaderValue::from_str(&v) {
+                h.append(k, v);
+            }
+        }
+        r
+    }
 }
 
-/// Why a request could not be read.
-#[derive(Debug)]
-pub enum ReadError {
-    /// Answer with this response (a malformed or oversized request).
-    Answer(Response),
-    /// The connection failed; nothing can be answered.
-    Closed,
-}
-
-/// Reads one request, with a body of at most `max_body` bytes for `POST`/`PUT` to paths under
-/// `/api/upload` and `small_body` bytes elsewhere.
-pub fn read_request(
-    stream: &TcpStream,
-    max_upload: u64,
-    small_body: u64,
-) -> Result<Request, ReadError> {
-    let mut reader = BufReader::new(stream);
-    let mut head = Vec::new();
-    loop {
-        let before = head.len();
-        let n = reader
-            .by_ref()
-            .take((MAX_HEADER_BYTES + 1 - before) as u64)
-            .read_until(b'\n', &mut head)
-            .map_err(|_| ReadError::Closed)?;
-        if n == 0 {
-            return Err(ReadError::Closed);
-        }
-        if head.len() > MAX_HEADER_BYTES {
-            return Err(ReadError::Answer(Response::error(
-                431,
-                "request headers too large",
-            )));
-        }
-        if head.ends_with(b"\r\n\r\n") || head.ends_with(b"\n\n") {
-            break;
-        }
-    }
-    let text = String::from_utf8_lossy(&head);
-    let mut lines = text.lines();
-    let bad = |m: &str| ReadError::Answer(Response::error(400, m));
-    let request_line = lines.next().ok_or_else(|| bad("empty request"))?;
-    let mut parts = request_line.split_whitespace();
-    let (Some(method), Some(target)) = (parts.next(), parts.next()) else {
-        return Err(bad("malformed request line"));
-    };
-    let mut length: u64 = 0;
-    for line in lines {
-        if let Some((name, value)) = line.split_once(':')
-            && name.trim().eq_ignore_ascii_case("content-length")
-        {
-            length = value
-                .trim()
-                .parse()
-                .map_err(|_| bad("bad Content-Length"))?;
-        }
-    }
-    let (path, query) = split_target(target);
-    let limit = if path.starts_with("/api/upload") {
-        max_upload
-    } else {
-        small_body
-    };
-    if length > limit {
-        let e = crate::error::ServeError::TooLarge {
-            got: length,
-            max: limit,
-        };
-        return Err(ReadError::Answer(Response::error(
-            e.status(),
-            &e.to_string(),
-        )));
-    }
-    let mut body = vec![0; usize::try_from(length).map_err(|_| ReadError::Closed)?];
-    reader
-        .read_exact(&mut body)
-        .map_err(|_| ReadError::Closed)?;
-    Ok(Request {
-        method: method.to_string(),
-        path,
-        query,
-        body,
-    })
-}
+/// Headers of every answer: nothing cached, no type sniffing, no framing by other sites, no
+/// embedding by other origins, no `Referer` (a token in the address stays on this page).
+const STANDARD_HEADERS: &[(&str, &str)] = &[
+    ("cache-control", "no-store"),
+    ("x-content-type-options", "nosniff"),
+    ("x-frame-options", "DENY"),
+    ("content-security-policy", "frame-ancestors 'none'"),
+    ("cross-origin-resource-policy", "same-origin"),
+    ("referrer-policy", "no-referrer"),
+];
 
 /// A request target's path, `%XX`-decoded, and its query as `application/x-www-form-urlencoded`
 /// pairs (`+` is a space; empty pairs are skipped). Invalid escapes are kept as they are.
@@ -189,165 +186,232 @@ pub fn split_target(target: &str) -> (String, Vec<(String, String)>) {
     (path, query)
 }
 
-fn reason(status: u16) -> &'static str {
-    match status {
-        200 => "OK",
-        400 => "Bad Request",
-        403 => "Forbidden",
-        404 => "Not Found",
-        405 => "Method Not Allowed",
-        413 => "Payload Too Large",
-        431 => "Request Header Fields Too Large",
-        503 => "Service Unavailable",
-        _ => "Internal Server Error",
-    }
-}
-
-/// Writes `r` and closes the connection (errors ignored: the client may have gone).
-pub fn write_response(mut stream: &TcpStream, r: &Response) {
-    let mut head = format!(
-        "HTTP/1.1 {} {}\r\nContent-Type: {}\r\nContent-Length: {}\r\nConnection: close\r\n\
-         Cache-Control: no-store\r\nX-Content-Type-Options: nosniff\r\n",
-        r.status,
-        reason(r.status),
-        r.content_type,
-        r.body.len()
-    );
-    for (k, v) in &r.headers {
-        head.push_str(&format!("{k}: {v}\r\n"));
-    }
-    head.push_str("\r\n");
-    let _ = stream
-        .write_all(head.as_bytes())
-        .and_then(|()| stream.write_all(&r.body))
-        .and_then(|()| stream.flush());
-    let _ = stream.shutdown(std::net::Shutdown::Write);
-    // Drain what the client may still send so the close does not reset the connection before
-    // it has read the answer.
-    let _ = stream.set_read_timeout(Some(Duration::from_millis(200)));
-    let mut sink = [0_u8; 4096];
-    let mut s = stream;
-    while matches!(s.read(&mut sink), Ok(n) if n > 0) {}
-}
-
 /// Sizes of the connection handling.
 #[derive(Clone, Copy, Debug)]
 pub struct HttpLimits {
     /// Handler threads.
     pub handlers: usize,
-    /// Connections waiting for a handler before new ones are answered `503`.
-    pub backlog: usize,
+    /// Open connections; beyond, new ones are answered `503`.
+    pub connections: usize,
     /// Largest upload body, bytes.
     pub max_upload: u64,
     /// Largest other body, bytes.
     pub small_body: u64,
 }
 
-/// A running listener: its threads stop when [`Listener::stop`] is called.
+/// What answers requests (runs on a handler thread).
+pub type Handler = Arc<dyn Fn(Request) -> Response + Send + Sync>;
+
+struct Shared {
+    limits: HttpLimits,
+    handle: Handler,
+    handlers: Arc<Semaphore>,
+    budget: Arc<Budget>,
+}
+
+/// A running listener: it stops when [`Listener::stop`] is called.
 pub struct Listener {
-    stop: Arc<AtomicBool>,
-    addr: std::net::SocketAddr,
-    threads: Vec<JoinHandle<()>>,
+    stop: Arc<Notify>,
+    addr: SocketAddr,
+    thread: JoinHandle<()>,
 }
 
 impl Listener {
-    /// Serves `listener` with `handle` on `limits.handlers` threads.
+    /// Serves `listener` with `handle`, within `limits`, taking upload bodies from `budget`.
     pub fn start(
         listener: TcpListener,
         limits: HttpLimits,
-        handle: Arc<dyn Fn(Request) -> Response + Send + Sync>,
+        budget: Arc<Budget>,
+        handle: Handler,
     ) -> std::io::Result<Self> {
         let addr = listener.local_addr()?;
-        let stop = Arc::new(AtomicBool::new(false));
-        let (tx, rx): (SyncSender<TcpStream>, Receiver<TcpStream>) =
-            sync_channel(limits.backlog.max(1));
-        let rx = Arc::new(Mutex::new(rx));
-        let mut threads = Vec::new();
-        for i in 0..limits.handlers.max(1) {
-            let rx = rx.clone();
-            let handle = handle.clone();
-            threads.push(
-                std::thread::Builder::new()
-                    .name(format!("uwnr-serve-http-{i}"))
-                    .spawn(move || {
-                        loop {
-                            let next = rx.lock().unwrap_or_else(PoisonError::into_inner).recv();
-                            let Ok(stream) = next else { break };
-                            serve_one(&stream, &limits, handle.as_ref());
-                        }
-                    })?,
-            );
-        }
+        listener.set_nonblocking(true)?;
+        let runtime = tokio::runtime::Builder::new_current_thread()
+            .enable_io()
+            .enable_time()
+            .max_blocking_threads(limits.handlers.max(1))
+            .thread_name("uwnr-serve-handler")
+            .build()?;
+        let stop = Arc::new(Notify::new());
+        let shared = Arc::new(Shared {
+            limits,
+            handle,
+            handlers: Arc::new(Semaphore::new(limits.handlers.max(1))),
+            budget,
+        });
         let stop_flag = stop.clone();
-        threads.push(
-            std::thread::Builder::new()
-                .name("uwnr-serve-accept".into())
-                .spawn(move || accept_loop(&listener, &tx, &stop_flag))?,
-        );
-        Ok(Self {
-            stop,
-            addr,
-            threads,
-        })
+        let thread = std::thread::Builder::new()
+            .name("uwnr-serve-http".into())
+            .spawn(move || {
+                runtime.block_on(async move {
+                    match tokio::net::TcpListener::from_std(listener) {
+                        Ok(l) => {
+                            let accepting = tokio::spawn(accept_loop(l, shared));
+                            stop_flag.notified().await;
+                            accepting.abort();
+                        }
+                        Err(e) => eprintln!("uwnr serve: cannot listen: {e}"),
+                    }
+                });
+                runtime.shutdown_timeout(Duration::from_secs(1));
+            })?;
+        Ok(Self { stop, addr, thread })
     }
 
     /// The address it listens on.
     #[must_use]
-    pub fn addr(&self) -> std::net::SocketAddr {
+    pub fn addr(&self) -> SocketAddr {
         self.addr
     }
 
     /// Blocks until the listener stops.
     pub fn join(self) {
-        for t in self.threads {
-            let _ = t.join();
-        }
+        let _ = self.thread.join();
     }
 
-    /// Stops accepting and lets the handlers finish.
+    /// Stops accepting, gives running exchanges a second, and returns.
     pub fn stop(self) {
-        self.stop.store(true, Ordering::SeqCst);
-        // Wake the accept loop.
-        let _ = TcpStream::connect(self.addr);
+        self.stop.notify_one();
         self.join();
     }
 }
 
-fn accept_loop(listener: &TcpListener, tx: &SyncSender<TcpStream>, stop: &AtomicBool) {
-    for stream in listener.incoming() {
-        if stop.load(Ordering::SeqCst) {
-            break;
-        }
-        let Ok(stream) = stream else { continue };
-        let _ = stream.set_read_timeout(Some(IO_TIMEOUT));
-        let _ = stream.set_write_timeout(Some(IO_TIMEOUT));
-        match tx.try_send(stream) {
-            Ok(()) => {}
-            Err(TrySendError::Full(stream)) => {
-                let _ = stream.set_write_timeout(Some(Duration::from_secs(2)));
-                write_response(
-                    &stream,
-                    &Response::error(503, "the server is busy; try again in a moment"),
-                );
+async fn accept_loop(listener: tokio::net::TcpListener, shared: Arc<Shared>) {
+    let connections = Arc::new(Semaphore::new(shared.limits.connections.max(1)));
+    let refusers = Arc::new(Semaphore::new(REFUSERS));
+    loop {
+        let Ok((stream, _)) = listener.accept().await else {
+            // Out of descriptors or a connection reset while queued: let a moment pass.
+            tokio::time::sleep(Duration::from_millis(50)).await;
+            continue;
+        };
+        match connections.clone().try_acquire_owned() {
+            Ok(permit) => {
+                let shared = shared.clone();
+                tokio::spawn(async move {
+                    serve_connection(stream, shared).await;
+                    drop(permit);
+                });
             }
-            Err(TrySendError::Disconnected(_)) => break,
+            Err(_) => {
+                if let Ok(permit) = refusers.clone().try_acquire_owned() {
+                    tokio::spawn(async move {
+                        refuse(stream).await;
+                        drop(permit);
+                    });
+                }
+            }
         }
     }
 }
 
-fn serve_one(
-    stream: &TcpStream,
-    limits: &HttpLimits,
-    handle: &(dyn Fn(Request) -> Response + Send + Sync),
-) {
-    match read_request(stream, limits.max_upload, limits.small_body) {
-        Ok(request) => {
-            let response = handle(request);
-            write_response(stream, &response);
-        }
-        Err(ReadError::Answer(response)) => write_response(stream, &response),
-        Err(ReadError::Closed) => {}
+/// Answers `503` to a connection over the limit, without reading its request.
+async fn refuse(mut stream: tokio::net::TcpStream) {
+    let body = json!({ "error": "the server is busy; try again in a moment" }).to_string();
+    let answer = format!(
+        "HTTP/1.1 503 Service Unavailable\r\ncontent-type: application/json\r\n\
+         content-length: {}\r\nconnection: close\r\ncache-control: no-store\r\n\r\n{body}",
+        body.len()
+    );
+    let _ = tokio::time::timeout(REFUSAL_DEADLINE, async {
+        stream.write_all(answer.as_bytes()).await?;
+        stream.shutdown().await
+    })
+    .await;
+}
+
+async fn serve_connection(stream: tokio::net::TcpStream, shared: Arc<Shared>) {
+    let _ = stream.set_nodelay(true);
+    let service = service_fn(move |req| {
+        let shared = shared.clone();
+        async move { Ok::<_, Infallible>(answer(req, &shared).await.into_hyper()) }
+    });
+    let mut builder = http1::Builder::new();
+    builder
+        .timer(TokioTimer::new())
+        .header_read_timeout(HEADER_DEADLINE)
+        .keep_alive(false)
+        .max_buf_size(MAX_HEADER_BYTES);
+    let connection = builder.serve_connection(TokioIo::new(stream), service);
+    let _ = tokio::time::timeout(CONNECTION_DEADLINE, connection).await;
+}
+
+/// Reads the body within its limits and deadline, then runs the handler on a handler thread.
+async fn answer(req: hyper::Request<Incoming>, shared: &Shared) -> Response {
+    let (parts, body) = req.into_parts();
+    let target = parts
+        .uri
+        .path_and_query()
+        .map_or_else(|| parts.uri.path().to_string(), |p| p.as_str().to_string());
+    let (path, query) = split_target(&target);
+    let upload = path.starts_with("/api/upload");
+    let limit = if upload {
+        shared.limits.max_upload
+    } else {
+        shared.limits.small_body
+    };
+    let declared = body.size_hint().exact();
+    if declared.is_some_and(|n| n > limit) {
+        return too_large(declared.unwrap_or(limit), limit);
     }
+    // An upload's bytes are counted before they are read (the declared length, or the most
+    // that may come).
+    let lease: Option<Lease> = if upload {
+        match shared
+            .budget
+            .try_take(declared.unwrap_or(limit), "the upload")
+        {
+            Ok(l) => Some(l),
+            Err(e) => return Response::error(e.status(), &e.to_string()),
+        }
+    } else {
+        None
+    };
+    let body = match tokio::time::timeout(
+        BODY_DEADLINE,
+        Limited::new(body, usize::try_from(limit).unwrap_or(usize::MAX)).collect(),
+    )
+    .await
+    {
+        Err(_) => {
+            return Response::error(
+                408,
+                &format!(
+                    "the request body took longer than {} s",
+                    BODY_DEADLINE.as_secs()
+                ),
+            );
+        }
+        Ok(Err(e)) if e.is::<LengthLimitError>() => return too_large(limit + 1, limit),
+        Ok(Err(_)) => return Response::error(400, "the request body ended early or is malformed"),
+        Ok(Ok(collected)) => collected.to_bytes(),
+    };
+    let request = Request {
+        method: parts.method.as_str().to_string(),
+        path,
+        query,
+        headers: parts.headers,
+        body,
+    };
+    let Ok(Ok(permit)) =
+        tokio::time::timeout(HANDLER_WAIT, shared.handlers.clone().acquire_owned()).await
+    else {
+        return Response::error(503, "the server is busy; try again in a moment");
+    };
+    let handle = shared.handle.clone();
+    tokio::task::spawn_blocking(move || {
+        let response = handle(request);
+        drop(lease);
+        drop(permit);
+        response
+    })
+    .await
+    .unwrap_or_else(|_| Response::error(500, "the request's handler failed"))
+}
+
+fn too_large(got: u64, max: u64) -> Response {
+    let e = crate::error::ServeError::TooLarge { got, max };
+    Response::error(e.status(), &e.to_string())
 }
 
 #[cfg(test)]

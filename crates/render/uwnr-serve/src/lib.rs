@@ -8,9 +8,11 @@
 //! as `uwnr dataset` draws them); it shows the six methods' renders side by side at a preview
 //! size, and the `uwnr render` / `uwnr dataset` commands that reproduce them.
 //!
-//! Every render goes through [`uwnr_render::Renderer`], in a pool of worker threads with a
-//! bounded queue ([`jobs`]); requests are served by a small std-only HTTP server ([`http`])
-//! with bounded connections and bodies; files are read only inside the two folders ([`paths`]).
+//! Every render goes through [`uwnr_render::RenderJob`], in a pool of worker threads with a
+//! bounded queue ([`jobs`]); requests are served by hyper with bounded connections, bodies and
+//! deadlines ([`http`]), answered only for this machine's pages ([`access`]: Host, Origin,
+//! token); decodes and renders take their bytes from one memory budget ([`budget`]); files are
+//! read only inside the two folders, checked when opened ([`paths`]).
 //!
 //! ```no_run
 //! let config = uwnr_serve::ServeConfig::new("photos".into(), "references".into());
@@ -19,7 +21,10 @@
 //! server.wait();
 //! ```
 
+pub mod access;
 pub mod app;
+pub mod budget;
+pub mod engine;
 pub mod error;
 pub mod http;
 pub mod jobs;
@@ -33,7 +38,10 @@ use std::sync::Arc;
 pub use error::{Result, ServeError};
 pub use view::{MethodOptions, ViewRequest};
 
-use crate::app::{App, Engine};
+use crate::access::Access;
+use crate::app::App;
+use crate::budget::Budget;
+pub use crate::engine::Engine;
 use crate::http::{HttpLimits, Listener};
 use crate::jobs::{Pool, Runner};
 
@@ -49,10 +57,14 @@ pub const DEFAULT_MAX_PIXELS: u64 = 24_000_000;
 pub const DEFAULT_MAX_DIMENSION: u32 = 8_192;
 /// Default render jobs waiting before requests are refused with `503`.
 pub const DEFAULT_QUEUE: usize = 32;
+/// Default memory budget of decodes and renders in flight, bytes (a render of a 24-megapixel
+/// photo at full size needs 1.5 GB of it).
+pub const DEFAULT_MEMORY_BYTES: u64 = 1536 * 1024 * 1024;
 /// HTTP handler threads.
 pub const HTTP_HANDLERS: usize = 8;
-/// Connections waiting for a handler before new ones are refused with `503`.
-pub const HTTP_BACKLOG: usize = 64;
+/// Open connections before new ones are answered `503` (a slow one costs a task and a socket,
+/// not a thread).
+pub const HTTP_CONNECTIONS: usize = 256;
 /// Largest body of a request other than an upload (a render request is a few hundred bytes).
 const SMALL_BODY: u64 = 64 * 1024;
 
@@ -79,6 +91,13 @@ pub struct ServeConfig {
     pub workers: usize,
     /// Render jobs waiting before requests are refused.
     pub queue: usize,
+    /// Bytes that decodes and renders in flight may hold together.
+    pub memory_bytes: u64,
+    /// Host names answered besides localhost and the server's own addresses (`--allow-host`).
+    pub allowed_hosts: Vec<String>,
+    /// The token every request must carry; `None`: a new random one when the server listens
+    /// beyond loopback, none on loopback.
+    pub token: Option<String>,
 }
 
 impl ServeConfig {
@@ -100,6 +119,9 @@ impl ServeConfig {
             max_dimension: DEFAULT_MAX_DIMENSION,
             workers,
             queue: DEFAULT_QUEUE,
+            memory_bytes: DEFAULT_MEMORY_BYTES,
+            allowed_hosts: Vec::new(),
+            token: None,
         }
     }
 }
@@ -121,26 +143,41 @@ impl Server {
         let addr = SocketAddr::new(config.host, config.port);
         let socket =
             TcpListener::bind(addr).map_err(ServeError::io(format!("listening on {addr}")))?;
+        let addr = socket
+            .local_addr()
+            .map_err(ServeError::io("reading the address listened on"))?;
+        let token = match (&config.token, config.host.is_loopback()) {
+            (Some(t), _) => Some(t.clone()),
+            (None, false) => Some(access::new_token()),
+            (None, true) => None,
+        };
+        let access = Access::new(config.host, addr.port(), &config.allowed_hosts, token);
         let limits = HttpLimits {
             handlers: HTTP_HANDLERS,
-            backlog: HTTP_BACKLOG,
+            connections: HTTP_CONNECTIONS,
             max_upload: config.max_upload_bytes,
             small_body: SMALL_BODY,
         };
+        let budget = Budget::new(config.memory_bytes);
         let (workers, queue) = (config.workers, config.queue);
-        let engine = Arc::new(Engine::new(config)?);
+        let engine = Arc::new(Engine::new(config, budget.clone())?);
         let runner_engine = engine.clone();
         let runner: Arc<Runner<ViewRequest>> =
             Arc::new(move |req: &ViewRequest| runner_engine.render(req).map_err(|e| e.to_string()));
         let pool = Pool::start(workers, queue, runner)?;
-        let app = Arc::new(App { engine, pool });
+        let app = Arc::new(App {
+            engine,
+            pool,
+            access,
+        });
         let handler_app = app.clone();
         let listener = Listener::start(
             socket,
             limits,
+            budget,
             Arc::new(move |req| handler_app.handle(&req)),
         )
-        .map_err(ServeError::io("starting the HTTP threads"))?;
+        .map_err(ServeError::io("starting the HTTP server"))?;
         Ok(Self { listener, app })
     }
 
@@ -150,10 +187,19 @@ impl Server {
         self.listener.addr()
     }
 
-    /// The page's address.
+    /// The page's address, with the token when one is asked.
     #[must_use]
     pub fn url(&self) -> String {
-        format!("http://{}/", self.addr())
+        match self.app.access.token() {
+            Some(t) => format!("http://{}/?token={t}", self.addr()),
+            None => format!("http://{}/", self.addr()),
+        }
+    }
+
+    /// The token requests must carry, if any.
+    #[must_use]
+    pub fn token(&self) -> Option<&str> {
+        self.app.access.token()
     }
 
     /// The engine (folders, renders) the server runs.

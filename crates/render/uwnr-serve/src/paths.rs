@@ -6,10 +6,21 @@
 //! lie under the folder's own resolved path; the same holds for the listed files themselves, so a
 //! symlink in the folder that points elsewhere is listed (its index is the one a dataset gives it)
 //! but never read.
+//!
+//! The check is made again each time a file is read ([`Library::read`], [`read_inside`]): the
+//! file is opened, and the path of the file actually opened (on Linux, what `/proc/self/fd`
+//! says; elsewhere, the resolved path whose device and inode match the opened file's) must lie
+//! under the folder. A file swapped for a symlink after the folder was listed is refused, not
+//! followed.
 
+use std::fs::File;
+use std::io::Read;
 use std::path::{Path, PathBuf};
 
 use crate::error::{Result, ServeError};
+
+/// Largest file read from a folder, bytes (a 24-megapixel 16-bit PNG is about 150 MB).
+pub const MAX_FILE_BYTES: u64 = 512 * 1024 * 1024;
 
 /// One image folder: its images in the order `uwnr dataset` lists them.
 #[derive(Debug)]
@@ -111,6 +122,14 @@ impl Library {
         Ok(&e.path)
     }
 
+    /// The bytes of image `index`, read only if the file opened lies inside the folder (module
+    /// docs).
+    pub fn read(&self, index: usize) -> Result<Vec<u8>> {
+        let path = self.path(index)?;
+        let rel = self.rel(index)?;
+        read_inside(&self.root, path, self.what, rel)
+    }
+
     /// The index of the image at `rel`, a path relative to the folder, after the checks of the
     /// module docs.
     pub fn find(&self, rel: &str) -> Result<usize> {
@@ -155,6 +174,64 @@ pub fn resolve_inside(root: &Path, rel: &str, what: &'static str) -> Result<Path
     Ok(resolved)
 }
 
+/// The bytes of the file at `path`, read only if the file opened lies under `root` (resolved);
+/// `what` and `shown` name it in messages (never the path itself).
+pub fn read_inside(root: &Path, path: &Path, what: &'static str, shown: &str) -> Result<Vec<u8>> {
+    let failed = |reason: String| ServeError::ServerFile {
+        what: format!("{what} image {shown}"),
+        reason,
+    };
+    let file = File::open(path).map_err(|e| failed(format!("cannot open it: {}", e.kind())))?;
+    let opened =
+        opened_path(&file, path).map_err(|e| failed(format!("cannot tell where it lies: {e}")))?;
+    if !opened.starts_with(root) {
+        return Err(ServeError::OutsideRoot {
+            what,
+            path: shown.to_string(),
+        });
+    }
+    let meta = file
+        .metadata()
+        .map_err(|e| failed(format!("cannot read it: {}", e.kind())))?;
+    if !meta.is_file() {
+        return Err(failed("not a file".into()));
+    }
+    if meta.len() > MAX_FILE_BYTES {
+        return Err(failed(format!(
+            "{} bytes, more than the {MAX_FILE_BYTES} bytes the page reads",
+            meta.len()
+        )));
+    }
+    let mut bytes = Vec::with_capacity(usize::try_from(meta.len()).unwrap_or(0));
+    file.take(MAX_FILE_BYTES)
+        .read_to_end(&mut bytes)
+        .map_err(|e| failed(format!("cannot read it: {}", e.kind())))?;
+    Ok(bytes)
+}
+
+/// Where the file `file`, opened from `path`, really is.
+fn opened_path(file: &File, path: &Path) -> std::io::Result<PathBuf> {
+    #[cfg(target_os = "linux")]
+    {
+        use std::os::fd::AsRawFd;
+        if let Ok(p) = std::fs::read_link(format!("/proc/self/fd/{}", file.as_raw_fd())) {
+            return Ok(p);
+        }
+    }
+    let resolved = path.canonicalize()?;
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        let (a, b) = (file.metadata()?, std::fs::metadata(&resolved)?);
+        if (a.dev(), a.ino()) != (b.dev(), b.ino()) {
+            return Err(std::io::Error::other("it changed while it was opened"));
+        }
+    }
+    #[cfg(not(unix))]
+    let _ = file;
+    Ok(resolved)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -167,5 +244,34 @@ mod tests {
             assert!(matches!(e, ServeError::OutsideRoot { .. }), "{bad}: {e}");
             assert_eq!(e.status(), 403);
         }
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_file_swapped_for_a_symlink_after_listing_is_not_read() {
+        let dir = tempfile::tempdir().unwrap();
+        let folder = dir.path().join("refs");
+        std::fs::create_dir(&folder).unwrap();
+        std::fs::write(folder.join("a.png"), b"inside").unwrap();
+        std::fs::write(dir.path().join("secret.png"), b"outside").unwrap();
+        let lib = Library::open(&folder, "reference").unwrap();
+        assert_eq!(lib.read(0).unwrap(), b"inside");
+        std::fs::remove_file(folder.join("a.png")).unwrap();
+        std::os::unix::fs::symlink(dir.path().join("secret.png"), folder.join("a.png")).unwrap();
+        let e = lib.read(0).unwrap_err();
+        assert!(matches!(e, ServeError::OutsideRoot { .. }), "{e}");
+        // A symlink that stays inside is read.
+        std::fs::write(folder.join("b.png"), b"other inside").unwrap();
+        std::fs::remove_file(folder.join("a.png")).unwrap();
+        std::os::unix::fs::symlink(folder.join("b.png"), folder.join("a.png")).unwrap();
+        assert_eq!(lib.read(0).unwrap(), b"other inside");
+        // A vanished file is the server's failure, named as listed.
+        std::fs::remove_file(folder.join("a.png")).unwrap();
+        let e = lib.read(0).unwrap_err();
+        assert_eq!(e.status(), 500);
+        assert!(
+            e.to_string().contains("a.png") && !e.to_string().contains('/'),
+            "{e}"
+        );
     }
 }

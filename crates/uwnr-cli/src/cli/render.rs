@@ -43,6 +43,14 @@ pub struct ServeArgs {
     /// Renders waiting before new requests are refused (HTTP 503, shown in the page).
     #[arg(long, value_name = "N", default_value_t = uwnr_serve::DEFAULT_QUEUE)]
     pub queue: usize,
+    /// Memory that decodes and renders in flight may hold together, MiB; beyond, requests are
+    /// answered 503 and renders wait.
+    #[arg(long, value_name = "MIB", default_value_t = uwnr_serve::DEFAULT_MEMORY_BYTES / (1024 * 1024))]
+    pub memory_mb: u64,
+    /// A host name the page may be reached by besides localhost and this machine's addresses
+    /// (repeat for several): requests naming any other host are refused (DNS rebinding).
+    #[arg(long, value_name = "NAME")]
+    pub allow_host: Vec<String>,
 }
 
 #[derive(Debug, Args)]

@@ -16,13 +16,15 @@ pub fn run(a: &ServeArgs) -> Result<ExitCode> {
     config.max_pixels = a.max_pixels;
     config.max_dimension = a.max_dimension;
     config.queue = a.queue;
+    config.memory_bytes = a.memory_mb.saturating_mul(1024 * 1024);
+    config.allowed_hosts.clone_from(&a.allow_host);
     if let Some(w) = a.workers {
         config.workers = w;
     }
     if !a.host.is_loopback() {
         eprintln!(
-            "warning: listening on {}: anyone who can reach this machine can see the page and \
-             the images in {} and {}",
+            "warning: listening on {}: anyone on the network who has the address printed below \
+             (it carries a token) can see the page and the images in {} and {}",
             a.host,
             a.clean.display(),
             a.references.display()
@@ -40,7 +42,8 @@ pub fn run(a: &ServeArgs) -> Result<ExitCode> {
     );
     // The address on stdout, alone on its line, for scripts and tests to read.
     println!("serving on {}", server.url());
-    // Ctrl-C ends the process without running destructors: remove the dropped images first.
+    // Ctrl-C, SIGTERM and SIGHUP end the process without running destructors: remove the
+    // dropped images first.
     let uploads = server.engine().upload_dir().to_path_buf();
     ctrlc::set_handler(move || {
         let _ = std::fs::remove_dir_all(&uploads);
