@@ -331,6 +331,8 @@ async fn serve_connection(stream: tokio::net::TcpStream, shared: Arc<Shared>) {
         .timer(TokioTimer::new())
         .header_read_timeout(HEADER_DEADLINE)
         .keep_alive(false)
+        // A client that closes its sending side after the request still gets the answer.
+        .half_close(true)
         .max_buf_size(MAX_HEADER_BYTES);
     let connection = builder.serve_connection(TokioIo::new(stream), service);
     let _ = tokio::time::timeout(CONNECTION_DEADLINE, connection).await;

@@ -44,7 +44,13 @@ impl Drop for Serving {
 
 /// Starts `uwnr serve` with `extra` flags and reads its address from stdout.
 fn serve(clean: &Path, refs: &Path, extra: &[&str]) -> Serving {
+    serve_in(clean, refs, extra, &std::env::temp_dir())
+}
+
+/// [`serve`] with `tmp` as its temporary folder (where dropped images go).
+fn serve_in(clean: &Path, refs: &Path, extra: &[&str], tmp: &Path) -> Serving {
     let mut child = Command::new(env!("CARGO_BIN_EXE_uwnr"))
+        .env("TMPDIR", tmp)
         .args([
             "serve",
             "--clean",
@@ -80,7 +86,7 @@ fn request(
     let mut s = TcpStream::connect(addr)?;
     s.set_read_timeout(Some(Duration::from_secs(120)))?;
     let head = format!(
-        "{method} {path} HTTP/1.1\r\nHost: test\r\nContent-Length: {}\r\nConnection: close\r\n\r\n",
+        "{method} {path} HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Length: {}\r\nConnection: close\r\n\r\n",
         body.len()
     );
     s.write_all(head.as_bytes())?;
@@ -276,4 +282,100 @@ fn the_full_resolution_download_equals_the_shown_render_command() {
         );
         assert_eq!(std::fs::read(&out).unwrap(), png, "{command}");
     }
+}
+
+/// A worst case for an upload: a PNG of all-zero pixels at the largest size the defaults
+/// accept (8192x2929, 24.0 megapixels) is 70 kB on the wire and 72 MB decoded.
+fn zero_png() -> Vec<u8> {
+    let mut out = Vec::new();
+    image::RgbImage::new(8192, 2929)
+        .write_to(&mut std::io::Cursor::new(&mut out), image::ImageFormat::Png)
+        .unwrap();
+    out
+}
+
+/// Memory budget of the upload test, MiB.
+const UPLOAD_BUDGET_MB: u64 = 512;
+/// Peak resident memory allowed in the upload test: the idle server (about 70 MB, see
+/// [`PEAK_RSS_BOUND_KB`]) plus the memory budget, which bounds every decode in flight, plus
+/// 128 MB of allocator slack and request bodies.
+const UPLOAD_RSS_BOUND_KB: u64 = (70 + UPLOAD_BUDGET_MB + 128) * 1024;
+
+#[test]
+#[cfg(target_os = "linux")]
+fn concurrent_worst_case_uploads_stay_within_the_memory_budget() {
+    let dir = tempfile::tempdir().unwrap();
+    let (clean, refs) = sample_folders(dir.path());
+    let budget = UPLOAD_BUDGET_MB.to_string();
+    let server = serve(&clean, &refs, &["--memory-mb", &budget]);
+    let addr = server.addr;
+    let png = std::sync::Arc::new(zero_png());
+    let threads: Vec<_> = (0..8)
+        .map(|i| {
+            let png = png.clone();
+            std::thread::spawn(move || {
+                request(
+                    addr,
+                    "POST",
+                    &format!("/api/upload?kind=clean&name=z{i}.png"),
+                    &png,
+                )
+            })
+        })
+        .collect();
+    let mut stored = 0;
+    for t in threads {
+        let (status, body) = t.join().unwrap().expect("every upload is answered");
+        match status {
+            200 => stored += 1,
+            503 => assert!(String::from_utf8_lossy(&body).contains("try again")),
+            other => panic!("status {other}: {}", String::from_utf8_lossy(&body)),
+        }
+    }
+    let peak = vm_hwm_kb(server.child.id());
+    eprintln!(
+        "8 uploads of 8192x2929 zeros, --memory-mb {UPLOAD_BUDGET_MB}: {stored} stored, peak RSS {} MB",
+        peak / 1024
+    );
+    assert!(stored >= 1);
+    assert!(
+        peak < UPLOAD_RSS_BOUND_KB,
+        "peak RSS {} MB over the bound {} MB",
+        peak / 1024,
+        UPLOAD_RSS_BOUND_KB / 1024
+    );
+}
+
+#[test]
+#[cfg(unix)]
+fn sigterm_removes_the_dropped_images_as_ctrl_c_does() {
+    let dir = tempfile::tempdir().unwrap();
+    let (clean, refs) = sample_folders(dir.path());
+    let tmp = dir.path().join("tmp");
+    std::fs::create_dir(&tmp).unwrap();
+    let mut server = serve_in(&clean, &refs, &[], &tmp);
+    let photo = std::fs::read(sample("clean-room.jpg")).unwrap();
+    let (status, _) = request(
+        server.addr,
+        "POST",
+        "/api/upload?kind=clean&name=mine.jpg",
+        &photo,
+    )
+    .unwrap();
+    assert_eq!(status, 200);
+    let folders = || -> Vec<std::path::PathBuf> {
+        std::fs::read_dir(&tmp)
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .collect()
+    };
+    assert_eq!(folders().len(), 1, "the server's folder of dropped images");
+    let killed = Command::new("kill")
+        .args(["-TERM", &server.child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(killed.success());
+    let exit = server.child.wait().unwrap();
+    assert!(!exit.success());
+    assert_eq!(folders(), Vec::<std::path::PathBuf>::new(), "left behind");
 }

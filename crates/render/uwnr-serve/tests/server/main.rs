@@ -1,0 +1,5 @@
+//! The server in-process on a free localhost port, through real HTTP requests.
+
+mod common;
+mod edges;
+mod routes;
