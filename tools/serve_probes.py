@@ -10,7 +10,9 @@ Starts the binary on the bundled samples (a free port, a temporary folder), then
   their statuses and the server's peak RSS (VmHWM);
 - DNS rebinding and cross-site requests: `Host: evil.example`, a `text/plain` POST with another
   Origin;
-- HTTP: HEAD, a wrong method on a known path, conflicting Content-Length, a chunked body.
+- HTTP: HEAD, a wrong method on a known path, conflicting Content-Length, a chunked body;
+- with `--big-refs`, a second server on nine 6000x4000 references: a preview render with each
+  (Reinhard keeps the decoded reference), then the server's resident memory (VmRSS) and peak.
 Linux only (reads /proc). Needs Pillow and NumPy for the PNG.
 """
 
@@ -124,10 +126,49 @@ def uploads(addr, pid, png, n=8):
     return results, vm_hwm_mb(pid)
 
 
+def big_references(binary, extra):
+    import numpy as np
+    from PIL import Image
+    with tempfile.TemporaryDirectory() as tmp:
+        p, addr = start(binary, tmp, extra)
+        p.terminate()
+        p.wait()
+        refs = Path(tmp, "refs")
+        y, x = np.mgrid[0:4000, 0:6000]
+        for i in range(9):
+            img = np.stack([(x * (i + 1)) % 256, y % 256, (x + y) % 256], -1).astype(np.uint8)
+            Image.fromarray(img).save(refs / f"big{i}.jpg", quality=80)
+        clean = Path(tmp, "clean")
+        cmd = [binary, "serve", "--clean", str(clean), "--references", str(refs), "--port", "0",
+               *extra]
+        p = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+        line = p.stdout.readline().strip()
+        host, port = line.split("http://")[1].split("/")[0].rsplit(":", 1)
+        addr = (host, int(port))
+        try:
+            for i in range(9):
+                body = json.dumps({"view": f"big|{i}", "clean": {"index": 0}, "reference": i,
+                                   "options": {"method": "reinhard"}}).encode()
+                st, _, b = req(addr, "POST", "/api/render", body)
+                job = json.loads(b)["job"]
+                while True:
+                    _, _, b = req(addr, "GET", f"/api/job/{job}")
+                    if json.loads(b)["state"] not in ("queued", "running"):
+                        break
+                    time.sleep(0.2)
+            rss = [l for l in open(f"/proc/{p.pid}/status") if l.startswith("VmRSS:")][0]
+            print(f"9 renders with 6000x4000 references: VmRSS {int(rss.split()[1]) / 1024:.0f} MB"
+                  f" after, peak {vm_hwm_mb(p.pid):.0f} MB")
+        finally:
+            p.terminate()
+            p.wait()
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--bin", default=str(ROOT / "target" / "release" / "uwnr"))
     ap.add_argument("--memory-mb", default=None)
+    ap.add_argument("--big-refs", action="store_true")
     a = ap.parse_args()
     extra = ["--memory-mb", a.memory_mb] if a.memory_mb else []
     png = zero_png()
@@ -163,6 +204,8 @@ def main():
         finally:
             p.terminate()
             p.wait()
+    if a.big_refs:
+        big_references(a.bin, extra)
     return 0
 
 

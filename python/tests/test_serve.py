@@ -13,6 +13,7 @@ import shlex
 import shutil
 import subprocess
 import time
+import urllib.error
 import urllib.request
 from pathlib import Path
 
@@ -61,23 +62,53 @@ def folders(tmp_path, samples):
     return tmp_path / "clean", refs
 
 
-@pytest.fixture
-def server(cli, folders):
+def start_server(cli, folders, *extra):
     clean, refs = folders
     # Relative folders, as a user types them: the page's commands then name them so (and the
     # screenshot shows no temporary paths); the commands run in the same folder.
-    proc = subprocess.Popen(
+    return subprocess.Popen(
         [str(cli), "serve", "--clean", clean.name, "--references", refs.name, "--port", "0",
-         "--preview-size", "256"],
+         *(() if "--preview-size" in extra else ("--preview-size", "256")), *extra],
         cwd=clean.parent,
         stdout=subprocess.PIPE,
         stderr=subprocess.DEVNULL,
         text=True,
     )
+
+
+@pytest.fixture
+def server(cli, folders):
+    proc = start_server(cli, folders)
     try:
         line = proc.stdout.readline().strip()
         assert line.startswith("serving on http://127.0.0.1:"), line
         yield line.removeprefix("serving on ")
+    finally:
+        proc.kill()
+        proc.wait()
+
+
+@pytest.fixture
+def one_worker_server(cli, folders):
+    """One render thread and larger previews: a tab's renders are still queued when another
+    tab asks for the same cells."""
+    proc = start_server(cli, folders, "--workers", "1", "--preview-size", "640")
+    try:
+        yield proc.stdout.readline().strip().removeprefix("serving on ")
+    finally:
+        proc.kill()
+        proc.wait()
+
+
+@pytest.fixture
+def exposed_server(cli, folders):
+    """Listening on every address: the printed address carries the run's token."""
+    proc = start_server(cli, folders, "--host", "0.0.0.0")
+    try:
+        line = proc.stdout.readline().strip()
+        assert line.startswith("serving on http://0.0.0.0:") and "/?token=" in line, line
+        # Reached through loopback, as a browser on the same machine would.
+        yield line.removeprefix("serving on ").replace("0.0.0.0", "127.0.0.1")
     finally:
         proc.kill()
         proc.wait()
@@ -213,3 +244,44 @@ def test_the_page_compares_methods_and_its_commands_reproduce_them(server, brows
     shot = Path(os.environ.get("UWNR_SCREENSHOT") or tmp_path / "serve.png")
     assert browser.save_screenshot(str(shot))
     assert Image.open(shot).size[0] >= 1000
+
+
+def references_listed(driver):
+    return len(driver.find_elements(By.CSS_SELECTOR, "#ref-grid .ref img")) == 2
+
+
+def test_two_tabs_of_the_page_do_not_cancel_each_other(one_worker_server, browser):
+    """Each page instance names its own views: the same cell rendered in two tabs finishes in
+    both (with one name for both, the second tab's requests made the first's stale, and the first
+    waited forever)."""
+    server = one_worker_server
+    wait = WebDriverWait(browser, WAIT_S)
+    browser.get(server)
+    first = browser.current_window_handle
+    wait.until(references_listed)
+    browser.switch_to.new_window("tab")
+    browser.get(server)
+    second = browser.current_window_handle
+    wait.until(references_listed)
+    for handle in (first, second):
+        browser.switch_to.window(handle)
+        browser.find_elements(By.CSS_SELECTOR, "#ref-grid .ref")[0].click()
+    for handle in (second, first):
+        browser.switch_to.window(handle)
+        wait.until(all_done)
+
+
+def test_beyond_loopback_the_page_works_through_its_tokened_address_only(exposed_server, browser):
+    wait = WebDriverWait(browser, WAIT_S)
+    base, token = exposed_server.split("?token=")
+    with pytest.raises(urllib.error.HTTPError) as refused:
+        get(base + "api/info")
+    assert refused.value.code == 403
+    # The printed address: the page loads, keeps the token as a cookie, and its API calls work.
+    browser.get(exposed_server)
+    wait.until(references_listed)
+    browser.find_elements(By.CSS_SELECTOR, "#ref-grid .ref")[0].click()
+    wait.until(all_done)
+    cookies = {c["name"]: c for c in browser.get_cookies()}
+    kept = [c for name, c in cookies.items() if name.startswith("uwnr-token-")]
+    assert kept and kept[0]["value"] == token and kept[0]["httpOnly"], cookies

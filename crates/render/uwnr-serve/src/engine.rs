@@ -90,7 +90,7 @@ pub(crate) struct RefInfo {
 
 /// Bytes an image's pixels take as planar f32.
 fn image_bytes(img: &Image) -> u64 {
-    (img.data().len() * std::mem::size_of::<f32>()) as u64
+    std::mem::size_of_val(img.data()) as u64
 }
 
 /// A decoder's message without the name it gives images decoded from memory.
