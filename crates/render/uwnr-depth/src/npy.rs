@@ -1,6 +1,7 @@
 //! NumPy `.npy` depth maps (format versions 1-3): a 2-D array `(H, W)`, or `(1, H, W)` /
-//! `(H, W, 1)`, of little-endian `float32`, `float64`, `uint16` or `uint8`, in C order; how
-//! monocular and metric depth networks usually save their output.
+//! `(H, W, 1)`, of `float32`, `float64`, `uint16` or `uint8` (either byte order), in C order; how
+//! monocular and metric depth networks usually save their output. Read with the `npyz` crate;
+//! the shape is checked against the decoding limits before any value is read.
 
 use std::path::Path;
 
@@ -11,9 +12,6 @@ use crate::error::{DepthError, Result};
 
 /// The magic string that opens every `.npy` file.
 const MAGIC: &[u8] = b"\x93NUMPY";
-
-/// Reads one little-endian sample.
-type ReadSample = fn(&[u8]) -> f32;
 
 /// Whether `path` ends in `.npy` (any case).
 #[must_use]
@@ -36,98 +34,68 @@ fn bad(path: &Path, reason: String) -> DepthError {
     }
 }
 
-/// Parses the bytes of a `.npy` file (see [`load_npy`]).
+/// Parses the bytes of a `.npy` file (see [`load_npy`]) with the `npyz` crate, after checking
+/// the shape against `limits` (before the data is read).
 pub(crate) fn parse_npy(
     bytes: &[u8],
     limits: &DecodeLimits,
 ) -> std::result::Result<(Image, f32), String> {
-    if bytes.len() < 10 || &bytes[..6] != MAGIC {
+    if !bytes.starts_with(MAGIC) {
         return Err("not a NumPy .npy file".into());
     }
-    let (header_len, start) = match bytes[6] {
-        1 => (usize::from(u16::from_le_bytes([bytes[8], bytes[9]])), 10),
-        2 | 3 if bytes.len() >= 12 => (
-            u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]) as usize,
-            12,
-        ),
-        v => return Err(format!("unsupported .npy version {v}")),
-    };
-    let header = bytes
-        .get(start..start + header_len)
-        .ok_or("truncated .npy header")?;
-    let header = std::str::from_utf8(header).map_err(|_| "the .npy header is not text")?;
-    let descr = field(header, "descr").ok_or("the .npy header has no descr")?;
-    let descr = descr.trim().trim_matches(|c| c == '\'' || c == '"');
-    if field(header, "fortran_order").is_some_and(|f| f.trim().starts_with("True")) {
+    let file = npyz::NpyFile::new(bytes).map_err(|e| format!("unreadable .npy header: {e}"))?;
+    if file.order() == npyz::Order::Fortran {
         return Err("Fortran-ordered arrays are not supported; save with C order".into());
     }
-    let shape = shape(header).ok_or("the .npy header has no readable shape")?;
-    let (h, w) = match shape.as_slice() {
-        [h, w] | [1, h, w] | [h, w, 1] => (*h, *w),
-        other => return Err(format!("shape {other:?} is not one map (H, W)")),
+    let (h, w) = match *file.shape() {
+        [h, w] | [1, h, w] | [h, w, 1] => (h, w),
+        ref other => return Err(format!("shape {other:?} is not one map (H, W)")),
     };
     if w == 0 || h == 0 {
         return Err(format!("shape ({h}, {w}) is empty"));
     }
-    let max_dim = limits.max_dimension as usize;
+    let max_dim = u64::from(limits.max_dimension);
     if w > max_dim || h > max_dim {
         return Err(format!(
             "{w}x{h} exceeds the {max_dim}-pixel limit on a side"
         ));
     }
-    let n = w * h;
-    let data = &bytes[start + header_len..];
-    let (size, max_code, read): (usize, f32, ReadSample) = match descr {
-        "<f4" => (4, 1.0, |b| f32::from_le_bytes([b[0], b[1], b[2], b[3]])),
-        "<f8" => (8, 1.0, |b| {
-            f64::from_le_bytes([b[0], b[1], b[2], b[3], b[4], b[5], b[6], b[7]]) as f32
-        }),
-        "<u2" => (2, f32::from(u16::MAX), |b| {
-            f32::from(u16::from_le_bytes([b[0], b[1]]))
-        }),
-        "|u1" | "<u1" => (1, f32::from(u8::MAX), |b| f32::from(b[0])),
-        other => {
+    if w * h > limits.max_pixels {
+        return Err(format!(
+            "{w}x{h} exceeds the limit of {} pixels",
+            limits.max_pixels
+        ));
+    }
+    let (w, h) = (w as usize, h as usize);
+    let descr = match file.dtype() {
+        npyz::DType::Plain(t) => t.to_string(),
+        other => other.descr(),
+    };
+    let truncated =
+        |e: std::io::Error| format!("truncated or unreadable data for {h}x{w} values: {e}");
+    // Either byte order; the kinds depth maps are saved in.
+    let (values, max_code): (Vec<f32>, f32) = match descr.get(1..) {
+        Some("f4") => (file.into_vec::<f32>().map_err(truncated)?, 1.0),
+        Some("f8") => {
+            let v = file.into_vec::<f64>().map_err(truncated)?;
+            (v.into_iter().map(|x| x as f32).collect(), 1.0)
+        }
+        Some("u2") => {
+            let v = file.into_vec::<u16>().map_err(truncated)?;
+            (v.into_iter().map(f32::from).collect(), f32::from(u16::MAX))
+        }
+        Some("u1") => {
+            let v = file.into_vec::<u8>().map_err(truncated)?;
+            (v.into_iter().map(f32::from).collect(), f32::from(u8::MAX))
+        }
+        _ => {
             return Err(format!(
-                "dtype {other} is not supported (float32, float64, uint16 or uint8, little-endian)"
+                "dtype {descr} is not supported (float32, float64, uint16 or uint8)"
             ));
         }
     };
-    if data.len() < n * size {
-        return Err(format!(
-            "truncated: {} bytes of data for {h}x{w} values of {size} bytes",
-            data.len()
-        ));
-    }
-    let values: Vec<f32> = data[..n * size].chunks_exact(size).map(read).collect();
     let img = Image::from_planar(w, h, 1, values).map_err(|e| e.to_string())?;
     Ok((img, max_code))
-}
-
-/// The text of `'key': value` in a header dict, up to the next top-level comma.
-fn field<'a>(header: &'a str, key: &str) -> Option<&'a str> {
-    let at = header
-        .find(&format!("'{key}'"))
-        .or_else(|| header.find(&format!("\"{key}\"")))?;
-    let rest = &header[at + key.len() + 2..];
-    let rest = rest.trim_start().strip_prefix(':')?;
-    let end = rest.find([',', '}']).unwrap_or(rest.len());
-    Some(&rest[..end])
-}
-
-/// The `shape` tuple of a header dict.
-fn shape(header: &str) -> Option<Vec<usize>> {
-    let at = header
-        .find("'shape'")
-        .or_else(|| header.find("\"shape\""))?;
-    let rest = &header[at..];
-    let open = rest.find('(')?;
-    let close = rest[open..].find(')')? + open;
-    rest[open + 1..close]
-        .split(',')
-        .map(str::trim)
-        .filter(|t| !t.is_empty())
-        .map(|t| t.parse().ok())
-        .collect()
 }
 
 #[cfg(test)]
@@ -175,12 +143,26 @@ mod tests {
     }
 
     #[test]
+    fn big_endian_float64_is_read_too() {
+        let data: Vec<u8> = [0.5f64, 7.0].iter().flat_map(|v| v.to_be_bytes()).collect();
+        let (img, _) = parse_npy(&npy(">f8", "(2, 1)", &data), &DecodeLimits::default()).unwrap();
+        assert_eq!((img.size(), img.data()), ((1, 2), &[0.5, 7.0][..]));
+    }
+
+    #[test]
     fn bad_files_say_what_is_wrong() {
         let limits = DecodeLimits::default();
         let err = |b: &[u8]| parse_npy(b, &limits).unwrap_err();
         assert!(err(b"PNG....").contains("not a NumPy"));
         assert!(err(&npy("<f4", "(2, 3)", &[0; 8])).contains("truncated"));
-        assert!(err(&npy(">f4", "(1, 1)", &[0; 4])).contains("dtype >f4"));
+        assert!(err(&npy("<i8", "(1, 1)", &[0; 8])).contains("dtype <i8"));
+        // Refused from the header, before 9 million values are read.
+        let small = DecodeLimits {
+            max_pixels: 1000,
+            ..limits
+        };
+        let e = parse_npy(&npy("<f4", "(3000, 3000)", &[0; 8]), &small).unwrap_err();
+        assert!(e.contains("limit of 1000 pixels"), "{e}");
         assert!(err(&npy("<f4", "(2, 2, 3)", &[0; 48])).contains("not one map"));
     }
 }
