@@ -1,25 +1,20 @@
-//! bf16 bits, one value at a time: an f32 rounded to bf16 (to nearest, ties to even, as
-//! `vcvtne2ps2bf16`) and bf16 bits widened back to f32 (exact). The emulated kernels and run
+//! bf16 bits, one value at a time, through the `half` crate: an f32 rounded to bf16 (to nearest,
+//! ties to even, as `vcvtne2ps2bf16`) and bf16 bits widened back to f32 (exact). The emulated kernels and run
 //! rounding of [`super::bf16`] and the tail of the AVX512_BF16 run rounding use this rule.
 
-/// `x` rounded to the nearest bf16, ties to even (NaN stays NaN, quietened).
+/// `x` rounded to the nearest bf16, ties to even (NaN stays NaN, quietened): the `half` crate's
+/// conversion.
 #[inline(always)]
 #[must_use]
 pub fn round(x: f32) -> u16 {
-    let b = x.to_bits();
-    if x.is_nan() {
-        return ((b >> 16) | 0x40) as u16;
-    }
-    // Adding 0x7fff plus the lowest kept bit carries into the kept half exactly when the
-    // dropped half is above one half, or equal to it with an odd kept half.
-    ((b + 0x7fff + ((b >> 16) & 1)) >> 16) as u16
+    half::bf16::from_f32(x).to_bits()
 }
 
 /// The f32 value of bf16 bits `h` (exact).
 #[inline(always)]
 #[must_use]
 pub fn widen(h: u16) -> f32 {
-    f32::from_bits(u32::from(h) << 16)
+    half::bf16::from_bits(h).to_f32()
 }
 
 #[cfg(test)]
