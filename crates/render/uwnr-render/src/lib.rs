@@ -32,6 +32,7 @@ pub mod haze;
 pub mod job;
 pub mod lru;
 pub mod method;
+pub mod options;
 pub mod record;
 pub mod renderer;
 
@@ -42,5 +43,6 @@ pub use job::{JobWorker, RenderJob};
 pub use method::{
     ComputeDevice, MethodKind, MethodSpec, Precision, ReferenceUse, UwganSpec, UwnrSpec,
 };
+pub use options::{MethodOptions, SeathruSource};
 pub use record::{depth_record, fnv1a64};
 pub use renderer::{PreparedReference, ReferenceInput, Rendered, Renderer, Worker};

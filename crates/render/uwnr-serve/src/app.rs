@@ -13,7 +13,10 @@ use crate::engine::Engine;
 use crate::error::{Result, ServeError};
 use crate::http::{Request, Response};
 use crate::jobs::Pool;
-use crate::view::{CleanSource, DepthChoice, PAGE_METHODS, RenderSize, ViewRequest, command_line};
+use crate::view::{
+    CleanSource, DepthChoice, PAGE_METHODS, RenderSize, ViewRequest, command_line, page_spec,
+    reads_reference,
+};
 
 /// Largest reference page.
 const MAX_PAGE: usize = 100;
@@ -220,7 +223,7 @@ impl App {
             ["api", "render"] => {
                 let view: ViewRequest = serde_json::from_slice(&req.body)
                     .map_err(|x| ServeError::BadRequest(format!("bad render request: {x}")))?;
-                view.options.check()?;
+                page_spec(&view.options)?;
                 let (render, dataset, notes) = commands(e, &view)?;
                 let id = self.pool.submit(&view.view.clone(), view)?;
                 Response::json(
@@ -337,7 +340,7 @@ pub fn commands(e: &Engine, req: &ViewRequest) -> Result<(String, String, Vec<St
     };
     let mut render = vec!["uwnr".to_string(), "render".to_string(), clean_name.clone()];
     let mut out_name = format!("uwnr-{}", stem(&clean_name));
-    if o.reads_reference()? {
+    if reads_reference(o)? {
         let i = req
             .reference
             .ok_or_else(|| ServeError::BadRequest("select a reference".into()))?;

@@ -33,7 +33,7 @@ use crate::budget::{Budget, Lease};
 use crate::error::{Result, ServeError};
 use crate::jobs::Output;
 use crate::paths::{Library, read_inside};
-use crate::view::{CleanSource, DepthChoice, RenderSize, ViewRequest};
+use crate::view::{CleanSource, DepthChoice, RenderSize, ViewRequest, page_spec};
 
 /// Longer side of reference thumbnails, pixels.
 pub const THUMB_SIDE: usize = 160;
@@ -453,7 +453,7 @@ impl Engine {
 
     /// Renders a request (what the pool's workers run).
     pub fn render(&self, req: &ViewRequest) -> Result<Output> {
-        let spec = req.options.spec()?;
+        let spec = page_spec(&req.options)?;
         let mut policy = DepthPolicy::render();
         if let Some((a, b)) = req.options.depth_scale {
             policy.scene_scale_m = (a as f32, b as f32);

@@ -1,10 +1,10 @@
 //! What the page asks to render, and the command lines that render the same thing: the method
-//! options map onto a [`MethodSpec`] exactly as `uwnr render`'s flags do (`uwnr-cli`'s
-//! `commands/method.rs`), and onto those flags.
+//! options are `uwnr_render::MethodOptions`, the type `uwnr render`'s flags become, so they set a
+//! [`MethodSpec`] and write back as flags as the command line does.
 
 use serde::{Deserialize, Serialize};
-use uwnr_baselines::{ColourSpace, Range, WaterType};
-use uwnr_render::{MethodKind, MethodSpec, Precision, ReferenceUse};
+pub use uwnr_render::MethodOptions;
+use uwnr_render::{MethodKind, MethodSpec, ReferenceUse};
 
 use crate::error::{Result, ServeError};
 
@@ -42,32 +42,6 @@ pub enum RenderSize {
     Full,
 }
 
-/// One method with the options the page shows for it (the flags of `uwnr render`).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct MethodOptions {
-    pub method: MethodKind,
-    /// `--seed`: the render's random parameters are drawn from `item_seed(seed, 0)`.
-    #[serde(default)]
-    pub seed: u64,
-    /// `--water-type` (jerlov); `None`: drawn from the seed.
-    #[serde(default)]
-    pub water_type: Option<WaterType>,
-    /// `--depth-scale MIN,MAX` in metres (uwnr: the scene scale of relative depth; jerlov: its
-    /// distance scale).
-    #[serde(default)]
-    pub depth_scale: Option<(f64, f64)>,
-    /// `--precision` (uwnr).
-    #[serde(default)]
-    pub precision: Precision,
-    /// `--reinhard-space` (reinhard).
-    #[serde(default)]
-    pub reinhard_space: Option<ColourSpace>,
-    /// `--mean-only` (reinhard).
-    #[serde(default)]
-    pub mean_only: bool,
-}
-
 /// A render the page asks for.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -96,11 +70,6 @@ pub struct DatasetDraw {
     pub seed: u64,
 }
 
-const JERLOV: &[MethodKind] = &[MethodKind::Jerlov];
-const DEPTH_SCALED: &[MethodKind] = &[MethodKind::Uwnr, MethodKind::Jerlov];
-const REINHARD: &[MethodKind] = &[MethodKind::Reinhard];
-const UWNR: &[MethodKind] = &[MethodKind::Uwnr];
-
 /// The six methods the page compares (the haze control is left out).
 pub const PAGE_METHODS: [MethodKind; 6] = [
     MethodKind::Uwnr,
@@ -111,109 +80,23 @@ pub const PAGE_METHODS: [MethodKind; 6] = [
     MethodKind::Reinhard,
 ];
 
-impl MethodOptions {
-    /// Refuses an option the method does not have, as `uwnr render` refuses its flag.
-    pub fn check(&self) -> Result<()> {
-        let m = self.method;
-        let flags: [(&str, bool, &[MethodKind]); 5] = [
-            ("water_type", self.water_type.is_some(), JERLOV),
-            ("depth_scale", self.depth_scale.is_some(), DEPTH_SCALED),
-            ("precision", self.precision != Precision::F32, UWNR),
-            ("reinhard_space", self.reinhard_space.is_some(), REINHARD),
-            ("mean_only", self.mean_only, REINHARD),
-        ];
-        for (name, set, applies) in flags {
-            if set && !applies.contains(&m) {
-                return Err(ServeError::BadRequest(format!(
-                    "option {name} does not apply to method {m}"
-                )));
-            }
-        }
-        if !PAGE_METHODS.contains(&m) {
-            return Err(ServeError::BadRequest(format!(
-                "method {m} is not one the page renders"
-            )));
-        }
-        if let Some((a, b)) = self.depth_scale
-            && !(a.is_finite() && b.is_finite() && a > 0.0 && a <= b)
-        {
-            return Err(ServeError::BadRequest(format!(
-                "depth scale {a},{b} must be positive metres with MIN <= MAX"
-            )));
-        }
-        Ok(())
+/// The method spec of the page's options, as `uwnr render` builds it from the same flags with a
+/// reference given (Sea-thru then fits its coefficients to the reference): refused when the page
+/// does not render the method or the method lacks an option.
+pub fn page_spec(o: &MethodOptions) -> Result<MethodSpec> {
+    if !PAGE_METHODS.contains(&o.method) {
+        return Err(ServeError::BadRequest(format!(
+            "method {} is not one the page renders",
+            o.method
+        )));
     }
-
-    /// The method spec, as `uwnr render` builds it from the same flags with a reference given
-    /// (Sea-thru then fits its coefficients to the reference).
-    pub fn spec(&self) -> Result<MethodSpec> {
-        self.check()?;
-        let mut spec = MethodSpec::defaults(self.method, true);
-        match &mut spec {
-            MethodSpec::Uwnr(s) => s.precision = self.precision,
-            MethodSpec::Jerlov(p) => {
-                if let Some(t) = self.water_type {
-                    p.water_type = Some(t);
-                }
-                if let Some((min, max)) = self.depth_scale {
-                    p.depth_scale = Range { min, max };
-                }
-            }
-            MethodSpec::Reinhard(p) => {
-                if let Some(s) = self.reinhard_space {
-                    p.space = s;
-                }
-                if self.mean_only {
-                    p.match_std = false;
-                }
-            }
-            _ => {}
-        }
-        Ok(spec)
-    }
-
-    /// Whether the render reads the reference.
-    pub fn reads_reference(&self) -> Result<bool> {
-        Ok(self.spec()?.reference_use() != ReferenceUse::Ignored)
-    }
-
-    /// The method flags of `uwnr render` and `uwnr dataset` (without `--seed`).
-    #[must_use]
-    pub fn flags(&self) -> Vec<String> {
-        let mut f = vec!["--method".to_string(), self.method.name().to_string()];
-        if let Some(t) = self.water_type {
-            f.push("--water-type".into());
-            f.push(json_name(&t));
-        }
-        if let Some((a, b)) = self.depth_scale {
-            f.push("--depth-scale".into());
-            f.push(if a == b {
-                format!("{a}")
-            } else {
-                format!("{a},{b}")
-            });
-        }
-        if self.precision != Precision::F32 {
-            f.push("--precision".into());
-            f.push(json_name(&self.precision));
-        }
-        if let Some(s) = self.reinhard_space {
-            f.push("--reinhard-space".into());
-            f.push(json_name(&s));
-        }
-        if self.mean_only {
-            f.push("--mean-only".into());
-        }
-        f
-    }
+    o.spec(true)
+        .map_err(|e| ServeError::BadRequest(e.to_string()))
 }
 
-/// The serde name of a unit enum value (the CLI's value names are the same).
-fn json_name<T: Serialize>(v: &T) -> String {
-    match serde_json::to_value(v) {
-        Ok(serde_json::Value::String(s)) => s,
-        other => format!("{other:?}"),
-    }
+/// Whether the render of the page's options reads the reference.
+pub fn reads_reference(o: &MethodOptions) -> Result<bool> {
+    Ok(page_spec(o)?.reference_use() != ReferenceUse::Ignored)
 }
 
 /// `s` quoted for a POSIX shell when it needs to be.
@@ -248,51 +131,17 @@ mod tests {
     }
 
     #[test]
-    fn options_map_to_the_clis_flags_and_specs() {
+    fn the_page_renders_its_six_methods_with_the_clis_rules() {
         let o = options(r#"{"method":"jerlov","seed":3,"water_type":"3C","depth_scale":[2,6]}"#);
-        assert_eq!(
-            o.flags().join(" "),
-            "--method jerlov --water-type 3C --depth-scale 2,6"
-        );
-        let MethodSpec::Jerlov(p) = o.spec().unwrap() else {
-            panic!()
-        };
-        assert_eq!(p.water_type, Some(WaterType::C3));
-        assert_eq!((p.depth_scale.min, p.depth_scale.max), (2.0, 6.0));
-        let r = options(r#"{"method":"reinhard","reinhard_space":"lab","mean_only":true}"#);
-        assert_eq!(
-            r.flags().join(" "),
-            "--method reinhard --reinhard-space lab --mean-only"
-        );
-        let u = options(r#"{"method":"uwnr","precision":"bf16","depth_scale":[3,3]}"#);
-        assert_eq!(
-            u.flags().join(" "),
-            "--method uwnr --depth-scale 3 --precision bf16"
-        );
-        assert!(!options(r#"{"method":"uwgan"}"#).reads_reference().unwrap());
-        assert!(
-            options(r#"{"method":"seathru"}"#)
-                .reads_reference()
-                .unwrap()
-        );
-    }
-
-    #[test]
-    fn options_a_method_lacks_are_refused() {
-        let e = options(r#"{"method":"uisa","water_type":"I"}"#)
-            .spec()
-            .unwrap_err()
-            .to_string();
-        assert!(
-            e.contains("water_type does not apply to method uisa"),
-            "{e}"
-        );
-        assert!(options(r#"{"method":"haze"}"#).spec().is_err());
-        assert!(
-            options(r#"{"method":"uwnr","depth_scale":[0,1]}"#)
-                .spec()
-                .is_err()
-        );
+        assert!(matches!(page_spec(&o).unwrap(), MethodSpec::Jerlov(_)));
+        assert!(!reads_reference(&options(r#"{"method":"uwgan"}"#)).unwrap());
+        assert!(reads_reference(&options(r#"{"method":"seathru"}"#)).unwrap());
+        let e = page_spec(&options(r#"{"method":"haze"}"#)).unwrap_err();
+        assert!(e.to_string().contains("not one the page renders"), "{e}");
+        let e = page_spec(&options(r#"{"method":"uisa","water_type":"I"}"#)).unwrap_err();
+        assert_eq!(e.status(), 400);
+        assert!(e.to_string().contains("--water-type does not apply"), "{e}");
+        assert!(page_spec(&options(r#"{"method":"uwnr","depth_scale":[0,1]}"#)).is_err());
     }
 
     #[test]

@@ -1,102 +1,77 @@
 //! From the method flags of `uwnr render`, `uwnr dataset` and `uwnr experiment` to a
-//! [`MethodSpec`]: the methods' defaults come from `uwnr-render`; here only the flags that
-//! a method has on the command line are mapped onto its settings.
+//! [`MethodSpec`]: the flags become `uwnr_render::MethodOptions` (which says which method has
+//! which option and sets them, for the page too); here only the command line's own parts (the
+//! model options, `--method-config`) are added.
 
 use anyhow::{Context, Result, bail};
-use uwnr_baselines::{
-    ColourSpace, GivenCoefficients, Range, ReferenceCoefficients, SampledCoefficients,
-    SeathruCoefficients, WaterType,
-};
-use uwnr_render::{MethodKind, MethodSpec, Renderer};
+use uwnr_baselines::{ColourSpace, WaterType};
+use uwnr_render::{MethodKind, MethodOptions, MethodSpec, Precision, Renderer};
 
 use crate::cli::{BaselineOpts, DeviceArg, ModelOpts, PrecisionArg, SeathruSource};
 
-fn range((min, max): (f64, f64)) -> Range {
-    Range { min, max }
+/// The options the flags set on method `kind` (`uwnr_render::MethodOptions`, the type the page
+/// and the commands it shows share). `--precision` is set on the methods it applies to only, so
+/// that one run may render a network and baselines.
+pub fn options(kind: MethodKind, o: &BaselineOpts, precision: PrecisionArg) -> MethodOptions {
+    MethodOptions {
+        method: kind,
+        seed: 0,
+        water_type: o.water_type.map(WaterType::from),
+        depth_scale: o.depth_scale,
+        background_depth: o.background_depth,
+        seathru: o.seathru.map(|s| match s {
+            SeathruSource::Sampled => uwnr_render::SeathruSource::Sampled,
+            SeathruSource::Reference => uwnr_render::SeathruSource::Reference,
+            SeathruSource::Given => uwnr_render::SeathruSource::Given,
+        }),
+        beta_d: o.beta_d,
+        beta_b: o.beta_b,
+        b_inf: o.b_inf,
+        reinhard_space: o.reinhard_space.map(ColourSpace::from),
+        mean_only: o.mean_only,
+        precision: if kind.loads_weights() {
+            precision.into()
+        } else {
+            Precision::F32
+        },
+    }
 }
 
 /// Refuses a method option that none of `methods` uses, with one line naming the option and
-/// the method(s): an option that does not apply is a mistake, not something to ignore.
+/// the method(s) (`MethodOptions::refuse_inapplicable`; `--method-config` is the command
+/// line's own).
 pub fn refuse_inapplicable(
     methods: &[MethodKind],
     o: &BaselineOpts,
     have_reference: bool,
 ) -> Result<()> {
-    use MethodKind::{Jerlov, Reinhard, Seathru, Uwnr};
-    let seathru_given = o.seathru == Some(SeathruSource::Given);
+    let configurable: Vec<MethodKind> = MethodKind::ALL
+        .into_iter()
+        .filter(|k| !k.loads_weights())
+        .collect();
+    if o.method_config.is_some() && !methods.iter().any(|m| configurable.contains(m)) {
+        let to = configurable.iter().map(|m| m.name()).collect::<Vec<_>>();
+        let names = methods.iter().map(|m| m.name()).collect::<Vec<_>>();
+        bail!(
+            "--method-config does not apply to --method {} (only to {})",
+            names.join(","),
+            to.join(", ")
+        );
+    }
     // Sea-thru takes its coefficients from the reference when one is given, unless told.
     let seathru_fitted = match o.seathru {
         Some(SeathruSource::Reference) => true,
         Some(_) => false,
         None => have_reference && o.method_config.is_none(),
     };
-    let configurable: Vec<MethodKind> = MethodKind::ALL
-        .into_iter()
-        .filter(|k| !k.loads_weights())
-        .collect();
-    // (flag, is it set, the methods it applies to)
-    let flags: [(&str, bool, &[MethodKind]); 9] = [
-        ("--method-config", o.method_config.is_some(), &configurable),
-        ("--water-type", o.water_type.is_some(), &[Jerlov]),
-        (
-            "--depth-scale",
-            o.depth_scale.is_some(),
-            &[Uwnr, Jerlov, Seathru],
-        ),
-        ("--seathru", o.seathru.is_some(), &[Seathru]),
-        ("--beta-d", o.beta_d.is_some(), &[Seathru]),
-        ("--beta-b", o.beta_b.is_some(), &[Seathru]),
-        ("--b-inf", o.b_inf.is_some(), &[Seathru]),
-        ("--reinhard-space", o.reinhard_space.is_some(), &[Reinhard]),
-        ("--mean-only", o.mean_only, &[Reinhard]),
-    ];
-    let names = || {
-        methods
-            .iter()
-            .map(|m| m.name())
-            .collect::<Vec<_>>()
-            .join(",")
-    };
-    for (flag, set, applies) in flags {
-        if set && !methods.iter().any(|m| applies.contains(m)) {
-            let to = applies.iter().map(|m| m.name()).collect::<Vec<_>>();
-            bail!(
-                "{flag} does not apply to --method {} (only to {})",
-                names(),
-                to.join(", ")
-            );
-        }
-    }
-    if o.depth_scale.is_some()
-        && methods.contains(&Seathru)
-        && !methods.contains(&Jerlov)
-        && !methods.contains(&Uwnr)
-        && seathru_fitted
-    {
-        bail!(
-            "--depth-scale does not apply to --method seathru with coefficients from the \
-             reference (the fit gives the distance)"
-        );
-    }
-    if o.background_depth.is_some() {
-        let jerlov = methods.contains(&Jerlov);
-        let seathru = methods.contains(&Seathru);
-        if seathru && !jerlov && seathru_given {
-            bail!("--background-depth does not apply to --method seathru with --seathru given");
-        }
-        if !jerlov && !seathru {
-            bail!(
-                "--background-depth does not apply to --method {} (only to jerlov, seathru)",
-                names()
-            );
-        }
-    }
+    let any = methods.first().copied().unwrap_or(MethodKind::Uwnr);
+    options(any, o, PrecisionArg::F32).refuse_inapplicable(methods, seathru_fitted)?;
     Ok(())
 }
 
-/// Method `kind` with its flags applied: the networks take the model options and `precision`,
-/// the other methods `--method-config` and their own flags. Callers first refuse flags that
-/// apply to none of their methods ([`refuse_inapplicable`]).
+/// Method `kind` with its flags applied: the networks take the model options, the other
+/// methods `--method-config`; both then take the options their flags set ([`options`]).
+/// Callers first refuse flags that apply to none of their methods ([`refuse_inapplicable`]).
 pub fn method_spec(
     kind: MethodKind,
     o: &BaselineOpts,
@@ -119,78 +94,18 @@ pub fn method_spec(
              (uwnr train, enhance, gan, experiment); drop it here"
         );
     }
+    if kind == MethodKind::Uwgan && precision == PrecisionArg::Bf16 {
+        bail!("--precision bf16 applies to --method uwnr only (the UWGAN generator runs in f32)");
+    }
+    options(kind, o, precision).apply(&mut spec);
     match &mut spec {
         MethodSpec::Uwnr(s) => {
             s.weights.clone_from(&model.weights);
-            s.precision = precision.into();
             s.max_whole_pixels = model.max_whole_pixels;
             s.tile = model.tile;
             s.overlap = model.overlap;
         }
-        MethodSpec::Uwgan(s) => {
-            if precision == PrecisionArg::Bf16 {
-                bail!(
-                    "--precision bf16 applies to --method uwnr only (the UWGAN generator runs in f32)"
-                );
-            }
-            s.weights.clone_from(&model.weights);
-        }
-        MethodSpec::Jerlov(p) => {
-            if let Some(t) = o.water_type {
-                p.water_type = Some(WaterType::from(t));
-            }
-            if let Some(r) = o.depth_scale {
-                p.depth_scale = range(r);
-            }
-            if let Some(r) = o.background_depth {
-                p.background_depth = range(r);
-            }
-        }
-        MethodSpec::Seathru(p) => {
-            match o.seathru {
-                Some(SeathruSource::Given) => {
-                    let d = GivenCoefficients::default();
-                    p.coefficients = SeathruCoefficients::Given(GivenCoefficients {
-                        beta_d: o.beta_d.unwrap_or(d.beta_d),
-                        beta_b: o.beta_b.unwrap_or(d.beta_b),
-                        b_inf: o.b_inf.unwrap_or(d.b_inf),
-                    });
-                }
-                Some(SeathruSource::Sampled) => {
-                    p.coefficients = SeathruCoefficients::Sampled(SampledCoefficients::default());
-                }
-                Some(SeathruSource::Reference) => {
-                    p.coefficients =
-                        SeathruCoefficients::FromReference(ReferenceCoefficients::default());
-                }
-                None => {}
-            }
-            if o.seathru != Some(SeathruSource::Given)
-                && (o.beta_d.is_some() || o.beta_b.is_some() || o.b_inf.is_some())
-            {
-                bail!("--beta-d, --beta-b and --b-inf need --seathru given");
-            }
-            if let Some(r) = o.depth_scale {
-                p.depth_scale = range(r);
-            }
-            if let Some(r) = o.background_depth {
-                match &mut p.coefficients {
-                    SeathruCoefficients::Sampled(s) => s.background_depth = range(r),
-                    SeathruCoefficients::FromReference(s) => s.background_depth = range(r),
-                    SeathruCoefficients::Given(_) => {}
-                }
-            }
-        }
-        MethodSpec::Reinhard(p) => {
-            if let Some(s) = o.reinhard_space {
-                p.space = ColourSpace::from(s);
-            }
-            if o.mean_only {
-                p.match_std = false;
-            }
-        }
-        // The methods with no flags of their own (their settings come from --method-config), so
-        // that a method added to uwnr-render needs nothing here.
+        MethodSpec::Uwgan(s) => s.weights.clone_from(&model.weights),
         _ => {}
     }
     if !kind.loads_weights()

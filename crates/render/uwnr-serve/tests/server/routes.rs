@@ -178,7 +178,7 @@ fn a_failing_render_is_a_message_and_the_server_keeps_serving() {
         body["error"]
             .as_str()
             .unwrap()
-            .contains("water_type does not apply"),
+            .contains("--water-type does not apply"),
         "{body}"
     );
     // And the next render works.
