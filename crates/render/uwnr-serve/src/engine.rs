@@ -14,13 +14,10 @@ use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, PoisonError};
 use std::time::Duration;
 
-use serde_json::{Value, json};
 use uwnr_baselines::background::SUID_MIN_REGION_FRACTION;
 use uwnr_baselines::{BackgroundPick, quadtree_background};
 use uwnr_core::Image;
-use uwnr_core::io::{
-    DecodeLimits, check_decodes, encode_rgb_png, load_rgb_from_memory, probe_memory,
-};
+use uwnr_core::io::{DecodeLimits, encode_rgb_png, load_rgb_from_memory, probe_memory};
 use uwnr_core::resize::fit_within;
 use uwnr_dataset::DepthPolicy;
 use uwnr_dataset::plan::ReferenceOrder;
@@ -33,6 +30,7 @@ use crate::budget::{Budget, Lease};
 use crate::error::{Result, ServeError};
 use crate::jobs::Output;
 use crate::paths::{Library, read_inside};
+use crate::uploads::{Upload, private_dir};
 use crate::view::{CleanSource, DepthChoice, RenderSize, ViewRequest, page_spec};
 
 /// Longer side of reference thumbnails, pixels.
@@ -47,8 +45,6 @@ const KEPT_PREVIEWS: usize = 16;
 const KEPT_REFERENCES: usize = 8;
 /// Bytes of decoded full-size references kept.
 pub const KEPT_REFERENCE_BYTES: u64 = 512 * 1024 * 1024;
-/// Dropped images kept on disk (older ones are deleted).
-const KEPT_UPLOADS: usize = 16;
 /// Loaded methods kept (the networks' weights are the large part).
 const KEPT_RENDERERS: usize = 12;
 /// Render jobs kept (a method with a depth setting), each with the references it prepared.
@@ -58,7 +54,7 @@ const KEPT_PREPARED: usize = 2;
 /// Bytes of prepared references a job keeps (a baseline's share the decoded image kept above).
 pub const KEPT_PREPARED_BYTES: u64 = 128 * 1024 * 1024;
 /// How long a request waits for memory before it is answered `503`.
-const DECODE_WAIT: Duration = Duration::from_secs(5);
+pub(crate) const DECODE_WAIT: Duration = Duration::from_secs(5);
 /// How long a render waits for memory (its queue is bounded) before it fails.
 const RENDER_WAIT: Duration = Duration::from_secs(120);
 /// Bytes a render holds per pixel of its clean image: the input, depth and output planes and the
@@ -67,17 +63,8 @@ const RENDER_WAIT: Duration = Duration::from_secs(120);
 /// the six methods (reinhard the largest); 64 leaves room.
 pub const RENDER_BYTES_PER_PIXEL: u64 = 64;
 
-fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+pub(crate) fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
     m.lock().unwrap_or_else(PoisonError::into_inner)
-}
-
-/// An image dropped into the page, kept as a file in the server's private temporary folder.
-#[derive(Clone, Debug)]
-struct Upload {
-    path: PathBuf,
-    /// The name the user's file had (what commands and messages name).
-    name: String,
-    depth: bool,
 }
 
 /// A reference's thumbnail and statistics.
@@ -94,7 +81,7 @@ fn image_bytes(img: &Image) -> u64 {
 }
 
 /// A decoder's message without the name it gives images decoded from memory.
-fn reason(e: &impl std::fmt::Display) -> String {
+pub(crate) fn reason(e: &impl std::fmt::Display) -> String {
     e.to_string().replace("\"<memory>\": ", "")
 }
 
@@ -126,10 +113,10 @@ pub struct Engine {
     /// The depth map beside each clean image (`X/rgb/NAME` with `X/depth/`), found once.
     beside: Vec<Option<PathBuf>>,
     pub(crate) refs: Library,
-    limits: DecodeLimits,
+    pub(crate) limits: DecodeLimits,
     budget: Arc<Budget>,
-    upload_dir: tempfile::TempDir,
-    uploads: Mutex<(u64, VecDeque<(String, Upload)>)>,
+    pub(crate) upload_dir: tempfile::TempDir,
+    pub(crate) uploads: Mutex<(u64, VecDeque<(String, Upload)>)>,
     renderers: Mutex<Lru<String, Arc<Renderer>>>,
     jobs: Mutex<Lru<String, Arc<RenderJob>>>,
     previews: Mutex<Lru<CleanSource, Arc<Image>>>,
@@ -224,27 +211,6 @@ impl Engine {
         Ok(job)
     }
 
-    fn upload(&self, id: &str) -> Result<Upload> {
-        lock(&self.uploads)
-            .1
-            .iter()
-            .find(|(k, _)| k == id)
-            .map(|(_, u)| u.clone())
-            .ok_or_else(|| {
-                ServeError::Missing(format!(
-                    "no dropped image {id:?} (the server keeps the last {KEPT_UPLOADS}); drop it again"
-                ))
-            })
-    }
-
-    /// A dropped file's bytes (a file the server kept: its loss is the server's failure).
-    fn upload_bytes(&self, u: &Upload) -> Result<Vec<u8>> {
-        std::fs::read(&u.path).map_err(|e| ServeError::ServerFile {
-            what: format!("dropped image {}", u.name),
-            reason: format!("the server lost its copy ({}); drop it again", e.kind()),
-        })
-    }
-
     /// The name commands give a clean source.
     pub(crate) fn clean_name(&self, source: &CleanSource) -> Result<String> {
         match source {
@@ -293,7 +259,7 @@ impl Engine {
             .then(|| e.bytes.len() as u64 + pixels * (2 * bpp + 12))
     }
 
-    fn lease(&self, bytes: u64, what: &str, wait: Duration) -> Result<Lease> {
+    pub(crate) fn lease(&self, bytes: u64, what: &str, wait: Duration) -> Result<Lease> {
         self.budget.take(bytes, what, wait)
     }
 
@@ -559,82 +525,6 @@ impl Engine {
         lock(&self.thumbs).put(i, info.clone());
         Ok(info)
     }
-
-    /// Stores a dropped image, readable by this user only, after checking that it decodes
-    /// within the limits (decoded as stored, within the memory budget).
-    pub fn store_upload(&self, bytes: &[u8], name: &str, depth: bool) -> Result<Value> {
-        let name: String = Path::new(name)
-            .file_name()
-            .map(|n| n.to_string_lossy().into_owned())
-            .unwrap_or_else(|| "dropped.png".into());
-        let bad = |reason: String| ServeError::BadImage {
-            what: name.clone(),
-            reason,
-        };
-        let (w, h, bpp) = probe_memory(bytes).map_err(|e| bad(reason(&e)))?;
-        let pixels = u64::from(w) * u64::from(h);
-        let _lease = if pixels <= self.limits.max_pixels && w.max(h) <= self.limits.max_dimension {
-            Some(self.lease(2 * pixels * bpp, &name, DECODE_WAIT)?)
-        } else {
-            None
-        };
-        let (width, height) = check_decodes(bytes, &self.limits).map_err(|e| bad(reason(&e)))?;
-        let mut g = lock(&self.uploads);
-        let id = format!("u{}", g.0);
-        g.0 += 1;
-        let ext = Path::new(&name)
-            .extension()
-            .map(|e| e.to_string_lossy().to_ascii_lowercase())
-            .filter(|e| uwnr_core::io::IMAGE_EXTENSIONS.contains(&e.as_str()))
-            .unwrap_or_else(|| "png".into());
-        let path = self.upload_dir.path().join(format!("{id}.{ext}"));
-        write_private(&path, bytes).map_err(ServeError::io("saving a dropped image"))?;
-        g.1.push_back((
-            id.clone(),
-            Upload {
-                path,
-                name: name.clone(),
-                depth,
-            },
-        ));
-        while g.1.len() > KEPT_UPLOADS {
-            if let Some((_, old)) = g.1.pop_front() {
-                let _ = std::fs::remove_file(old.path);
-            }
-        }
-        Ok(json!({ "id": id, "name": name, "width": width, "height": height }))
-    }
-}
-
-/// The folder for dropped images, readable by this user only (0700).
-fn private_dir() -> Result<tempfile::TempDir> {
-    let dir = tempfile::Builder::new()
-        .prefix("uwnr-serve-")
-        .tempdir()
-        .map_err(ServeError::io("creating the folder for dropped images"))?;
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::PermissionsExt;
-        std::fs::set_permissions(dir.path(), std::fs::Permissions::from_mode(0o700)).map_err(
-            ServeError::io("making the folder for dropped images private"),
-        )?;
-    }
-    Ok(dir)
-}
-
-/// Writes a new file readable by this user only (0600).
-fn write_private(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
-    use std::io::Write;
-    let mut options = std::fs::OpenOptions::new();
-    options.write(true).create_new(true);
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::OpenOptionsExt;
-        options.mode(0o600);
-    }
-    let mut f = options.open(path)?;
-    f.write_all(bytes)?;
-    f.sync_all()
 }
 
 /// The depth map beside each clean image, resolved inside the clean folder (each `depth/`

@@ -29,6 +29,7 @@ pub mod error;
 pub mod http;
 pub mod jobs;
 pub mod paths;
+pub mod uploads;
 pub mod view;
 
 use std::net::{IpAddr, Ipv4Addr, SocketAddr, TcpListener};
