@@ -2,7 +2,7 @@
 # Do two `uwnr` binaries make the same datasets? For every render method, `uwnr dataset` on the
 # same clean photos (Set14 at native sizes, so odd sizes and tiling-free whole images; plus two
 # SUN photos at 1024 px) and references (U45), K = 2, once as image folders and once as
-# WebDataset shards; then `cmp` of every file. Used when code moves between crates (the render
+# WebDataset shards; then `cmp` of every file (of every shard member, in order). Used when code moves between crates (the render
 # wing's split from burn): the outputs must not change, or the differences are listed.
 #   OLD=path/to/old/uwnr NEW=target/release/uwnr [PYTHON=venv/bin/python] bash tools/compare_binaries.sh
 # (PYTHON needs numpy and pillow, to measure how far differing images are apart.)
@@ -31,6 +31,15 @@ for method in ${METHODS:-uwnr uwgan jerlov uisa seathru reinhard haze}; do
         echo "$method $format $which: failed"; tail -3 "$WORK/$method-$format-$which.log"; status=1; }
     done
     a="$WORK/$method-$format-old" b="$WORK/$method-$format-new"
+    # Shards are compared by their members (name, then contents): the tar headers' own bytes
+    # changed with the `tar` crate (README, WebDataset); set RAW_TARS=1 to compare them as bytes.
+    if [ "$format" = webdataset ] && [ -z "${RAW_TARS:-}" ]; then
+      for d in "$a" "$b"; do
+        for t in "$d"/webdataset/*.tar; do
+          mkdir -p "$t.members" && tar -xf "$t" -C "$t.members" && tar -tf "$t" > "$t.names" && rm "$t"
+        done
+      done
+    fi
     n=$(cd "$a" && find . -type f | wc -l)
     diffs=$(cd "$a" && find . -type f | sort | while read -r f; do
       cmp -s "$f" "$b/$f" || echo "$f"; done)

@@ -13,9 +13,10 @@
 //! has them `KEY.depth.png`, `KEY.lightfield.png`, `KEY.labels.json` or `KEY.labels.txt`,
 //! `KEY.mask.png`. A sample never spans two shards.
 //!
-//! The tars are deterministic: members in a fixed order, mode 0644, owner 0, time 0, ustar
-//! headers (a PAX header for names over 100 bytes), so the same folder always packs to the same
-//! bytes. Every shard is written to a temporary name and renamed; the index is written last.
+//! The tars are written with the `tar` crate and are deterministic: members in a fixed order,
+//! mode 0644, owner 0, time 0, ustar headers (a GNU long-name entry before names of 100 bytes or
+//! more, which Python's `tarfile` and so WebDataset read), so the same folder always packs to the
+//! same bytes. Every shard is written to a temporary name and renamed; the index is written last.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -148,85 +149,35 @@ fn padded(n: u64) -> u64 {
     n.div_ceil(BLOCK) * BLOCK
 }
 
-/// Bytes a member takes in the tar: its header(s) and its padded data.
-fn member_bytes(name: &str, size: u64) -> u64 {
-    let pax = if name.len() > 100 {
-        BLOCK + padded(pax_record(name).len() as u64)
-    } else {
-        0
-    };
-    pax + BLOCK + padded(size)
+/// The header of a member: mode 0644, owner 0, time 0, no user or group names (so the same
+/// folder packs to the same bytes).
+fn header(size: u64) -> tar::Header {
+    let mut h = tar::Header::new_ustar();
+    h.set_mode(0o644);
+    h.set_uid(0);
+    h.set_gid(0);
+    h.set_mtime(0);
+    h.set_size(size);
+    h.set_entry_type(tar::EntryType::Regular);
+    h
 }
 
-/// The PAX `path` record for a long name: `"LEN path=NAME\n"`, LEN counting itself.
-fn pax_record(name: &str) -> String {
-    let body = format!(" path={name}\n");
-    let mut len = body.len() + 1;
-    while format!("{len}{body}").len() != len {
-        len += 1;
-    }
-    format!("{len}{body}")
+/// Bytes a member takes in the tar: its header(s) (a GNU long-name entry first for names of 100
+/// bytes or more) and its padded data; measured by writing the headers, so it is exact.
+fn member_bytes(name: &str, size: u64) -> Result<u64> {
+    let mut b = tar::Builder::new(Vec::new());
+    b.append_data(&mut header(0), name, std::io::empty())
+        .map_err(|e| DatasetError::Invalid(format!("{name}: {e}")))?;
+    let headers = b.get_ref().len() as u64;
+    Ok(headers + padded(size))
 }
 
-/// A ustar header block.
-fn header(name: &str, size: u64, typeflag: u8) -> Result<[u8; 512]> {
-    if size >= 1 << 33 {
-        return Err(DatasetError::Invalid(format!(
-            "{name} is larger than 8 GiB, which a ustar member cannot hold"
-        )));
-    }
-    let mut h = [0u8; 512];
-    let short: &str = if name.len() > 100 {
-        &name[..name.floor_char_boundary(100)]
-    } else {
-        name
-    };
-    h[..short.len()].copy_from_slice(short.as_bytes());
-    let octal = |field: &mut [u8], v: u64| {
-        let s = format!("{:0width$o}\0", v, width = field.len() - 1);
-        field.copy_from_slice(s.as_bytes());
-    };
-    octal(&mut h[100..108], 0o644);
-    octal(&mut h[108..116], 0);
-    octal(&mut h[116..124], 0);
-    octal(&mut h[124..136], size);
-    octal(&mut h[136..148], 0);
-    h[148..156].copy_from_slice(b"        ");
-    h[156] = typeflag;
-    h[257..263].copy_from_slice(b"ustar\0");
-    h[263..265].copy_from_slice(b"00");
-    let sum: u32 = h.iter().map(|&b| u32::from(b)).sum();
-    let s = format!("{sum:06o}\0 ");
-    h[148..156].copy_from_slice(s.as_bytes());
-    Ok(h)
-}
-
-fn write_member(w: &mut dyn Write, name: &str, data: &[u8]) -> Result<()> {
-    let io = |e: std::io::Error| DatasetError::Io {
-        path: PathBuf::from(name),
-        source: e,
-    };
-    if name.len() > 100 {
-        let rec = pax_record(name);
-        let h = header(&format!("PaxHeaders/{name}"), rec.len() as u64, b'x')?;
-        w.write_all(&h).map_err(io)?;
-        w.write_all(rec.as_bytes()).map_err(io)?;
-        w.write_all(&vec![
-            0;
-            (padded(rec.len() as u64) - rec.len() as u64) as usize
-        ])
-        .map_err(io)?;
-    }
-    let h = header(name, data.len() as u64, b'0')?;
-    w.write_all(&h).map_err(io)?;
-    w.write_all(data).map_err(io)?;
-    w.write_all(&vec![
-        0;
-        (padded(data.len() as u64) - data.len() as u64)
-            as usize
-    ])
-    .map_err(io)?;
-    Ok(())
+fn write_member<W: Write>(w: &mut tar::Builder<W>, name: &str, data: &[u8]) -> Result<()> {
+    w.append_data(&mut header(data.len() as u64), name, data)
+        .map_err(|e| DatasetError::Io {
+            path: PathBuf::from(name),
+            source: e,
+        })
 }
 
 /// The records of a finished (merged) dataset folder, in pair order.
@@ -292,13 +243,13 @@ pub fn export(
     for r in &records {
         let key = key(r);
         let line = r.to_line().into_bytes();
-        let mut bytes = member_bytes(&format!("{key}.json"), line.len() as u64);
+        let mut bytes = member_bytes(&format!("{key}.json"), line.len() as u64)?;
         let mut members = vec![(format!("{key}.json"), Member::Bytes(line))];
         for f in r.files() {
             let p = out.join(f);
             let len = std::fs::metadata(&p).map_err(io_err(&p))?.len();
             let name = format!("{key}.{}", member_ext(f)?);
-            bytes += member_bytes(&name, len);
+            bytes += member_bytes(&name, len)?;
             members.push((name, Member::File(p)));
         }
         samples.push(Sample {
@@ -330,7 +281,7 @@ pub fn export(
             let path = dir.join(name(i));
             let mut failure: Option<DatasetError> = None;
             let written = uwnr_core::io::write_atomic(&path, |w| {
-                let mut w = std::io::BufWriter::with_capacity(1 << 20, w);
+                let mut w = tar::Builder::new(std::io::BufWriter::with_capacity(1 << 20, w));
                 for s in samples {
                     for (member, source) in &s.members {
                         let data = match source {
@@ -350,8 +301,8 @@ pub fn export(
                     }
                     progress(done.fetch_add(1, Ordering::Relaxed) + 1, total);
                 }
-                w.write_all(&[0; 2 * BLOCK as usize])?;
-                w.flush()
+                // The two zero blocks that end an archive.
+                w.into_inner()?.flush()
             });
             if let Some(e) = failure {
                 return Err(e);
@@ -407,47 +358,25 @@ pub fn export(
     })
 }
 
-/// The member names of a tar file, in order, with their sizes (PAX `path` records applied).
+/// The member names of a tar file, in order, with their sizes (long-name entries applied).
 pub fn tar_members(path: &Path) -> Result<Vec<(String, u64)>> {
-    use std::io::{Read, Seek, SeekFrom};
-    let mut f = std::fs::File::open(path).map_err(io_err(path))?;
-    let corrupt = |reason: &str| DatasetError::Corrupt {
+    let f = std::fs::File::open(path).map_err(io_err(path))?;
+    let corrupt = |e: std::io::Error| DatasetError::Corrupt {
         path: path.to_path_buf(),
-        reason: reason.into(),
+        reason: format!("not a readable tar: {e}"),
     };
+    let mut archive = tar::Archive::new(std::io::BufReader::new(f));
     let mut out = Vec::new();
-    let mut long: Option<String> = None;
-    loop {
-        let mut h = [0u8; 512];
-        f.read_exact(&mut h)
-            .map_err(|_| corrupt("ends inside a header"))?;
-        if h.iter().all(|&b| b == 0) {
-            return Ok(out);
-        }
-        let field = |r: std::ops::Range<usize>| {
-            let b = &h[r];
-            let end = b.iter().position(|&c| c == 0).unwrap_or(b.len());
-            String::from_utf8_lossy(&b[..end]).trim().to_string()
-        };
-        let size =
-            u64::from_str_radix(&field(124..136), 8).map_err(|_| corrupt("bad size field"))?;
-        let name = field(0..100);
-        if h[156] == b'x' {
-            let mut rec = vec![0; size as usize];
-            f.read_exact(&mut rec)
-                .map_err(|_| corrupt("ends inside a PAX header"))?;
-            let text = String::from_utf8_lossy(&rec);
-            long = text
-                .split_once(" path=")
-                .map(|(_, p)| p.trim_end_matches('\n').to_string());
-            f.seek(SeekFrom::Current((padded(size) - size) as i64))
-                .map_err(io_err(path))?;
-            continue;
-        }
-        out.push((long.take().unwrap_or(name), size));
-        f.seek(SeekFrom::Current(padded(size) as i64))
-            .map_err(io_err(path))?;
+    for entry in archive.entries().map_err(corrupt)? {
+        let entry = entry.map_err(corrupt)?;
+        let name = entry
+            .path()
+            .map_err(corrupt)?
+            .to_string_lossy()
+            .into_owned();
+        out.push((name, entry.header().size().map_err(corrupt)?));
     }
+    Ok(out)
 }
 
 #[cfg(test)]
@@ -465,32 +394,42 @@ mod tests {
     }
 
     #[test]
-    fn headers_are_ustar_with_checksums() {
-        let h = header("00000001-a_0.underwater.png", 1234, b'0').unwrap();
+    fn headers_are_ustar_owned_by_nobody_at_time_zero() {
+        let mut w = tar::Builder::new(Vec::new());
+        write_member(&mut w, "00000001-a_0.underwater.png", &[7; 1234]).unwrap();
+        let bytes = w.into_inner().unwrap();
+        assert_eq!(bytes.len(), 512 + 1536 + 1024);
+        let h = &bytes[..512];
         assert_eq!(&h[257..263], b"ustar\0");
+        assert_eq!(&h[100..108], b"0000644\0");
         assert_eq!(&h[124..136], b"00000002322\0");
-        let stored = u32::from_str_radix(std::str::from_utf8(&h[148..154]).unwrap(), 8).unwrap();
-        let mut blank = h;
+        assert_eq!(&h[136..148], b"00000000000\0");
+        let stored = u32::from_str_radix(
+            std::str::from_utf8(&h[148..155])
+                .unwrap()
+                .trim_end_matches('\0'),
+            8,
+        )
+        .unwrap();
+        let mut blank = h.to_vec();
         blank[148..156].copy_from_slice(b"        ");
         assert_eq!(stored, blank.iter().map(|&b| u32::from(b)).sum::<u32>());
-        assert!(header("x", 1 << 33, b'0').is_err());
     }
 
     #[test]
-    fn long_names_get_a_pax_record_and_read_back() {
-        let rec = pax_record("abc");
-        assert_eq!(rec, "12 path=abc\n");
+    fn long_names_read_back_and_sizes_are_exact() {
         let long = format!("00000001-{}.underwater.png", "n".repeat(120));
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("t.tar");
-        let mut buf = Vec::new();
-        write_member(&mut buf, &long, b"hello").unwrap();
-        write_member(&mut buf, "short.json", b"{}").unwrap();
-        buf.extend([0; 1024]);
+        let mut w = tar::Builder::new(Vec::new());
+        write_member(&mut w, &long, b"hello").unwrap();
+        write_member(&mut w, "short.json", b"{}").unwrap();
+        let buf = w.into_inner().unwrap();
         assert_eq!(
             buf.len() as u64,
-            member_bytes(&long, 5) + member_bytes("short.json", 2) + 1024
+            member_bytes(&long, 5).unwrap() + member_bytes("short.json", 2).unwrap() + 1024
         );
+        assert_eq!(member_bytes("short.json", 2).unwrap(), 1024);
         std::fs::write(&p, &buf).unwrap();
         assert_eq!(
             tar_members(&p).unwrap(),
