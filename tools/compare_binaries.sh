@@ -16,7 +16,8 @@ WORK=$(mktemp -d)
 trap 'rm -rf "$WORK"' EXIT
 mkdir -p "$WORK/clean"
 cp "$DATA"/inair/set14/*.jpg "$WORK/clean/"
-ls "$DATA"/inair/sun-hays80/*.jpg | head -2 | xargs -I{} cp {} "$WORK/clean/"
+suns=("$DATA"/inair/sun-hays80/*.jpg)
+cp "${suns[@]:0:2}" "$WORK/clean/"
 REFS="$DATA/references/u45"
 status=0
 for method in ${METHODS:-uwnr uwgan jerlov uisa seathru reinhard haze}; do
