@@ -97,9 +97,14 @@ impl RenderJob {
                 .references
                 .lock()
                 .unwrap_or_else(PoisonError::into_inner);
-            let cell = refs.get(&key.to_string()).unwrap_or_default();
-            refs.put(key.to_string(), Arc::clone(&cell));
-            cell
+            // A kept reference is now the most recent, with its size; a new one is kept at
+            // size 0 until prepared.
+            let key = key.to_string();
+            refs.get(&key).unwrap_or_else(|| {
+                let cell = Arc::default();
+                refs.put(key, Arc::clone(&cell));
+                cell
+            })
         };
         // Prepared outside the lock: other references are prepared meanwhile, and threads
         // asking for this one wait for the first.
