@@ -240,6 +240,10 @@ pub struct Record {
     /// recorded, and for identical sides).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub strength_db: Option<f32>,
+    /// The pair's labels: annotations dropped and fingerprints of the files written (absent
+    /// without labels, and in folders made before it was recorded).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub labels_info: Option<crate::labels::LabelsInfo>,
 }
 
 impl Record {
@@ -538,6 +542,7 @@ mod tests {
             labels: None,
             mask: None,
             strength_db: None,
+            labels_info: None,
         }
     }
 

@@ -600,6 +600,7 @@ impl Context<'_> {
                 lf_dir_needed,
                 &pair_labels,
             );
+            let labels_info = pair_labels.info();
             let msg = match result {
                 Ok((params, reference_source, strength_db)) => Msg::Pair(Box::new(Record {
                     id: id.clone(),
@@ -624,6 +625,7 @@ impl Context<'_> {
                     labels: pair_labels.labels.map(|(f, _)| f),
                     mask: pair_labels.mask.map(|(f, _)| f),
                     strength_db,
+                    labels_info,
                 })),
                 Err(reason) => Msg::Failed(Failure {
                     source: source.to_string_lossy().into_owned(),
