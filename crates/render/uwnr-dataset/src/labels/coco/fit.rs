@@ -250,3 +250,76 @@ pub(super) fn fit_annotation(
     }
     Ok(Ok(out))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::plan::Size;
+
+    fn ann(v: Value) -> Map<String, Value> {
+        v.as_object().unwrap().clone()
+    }
+
+    fn fixed(width: usize, height: usize) -> Fit {
+        Fit::new((400, 200), Size::Fixed { width, height })
+    }
+
+    #[test]
+    fn a_cut_box_only_annotation_gets_the_clipped_box_area() {
+        // 400x200 to 100x100: scale 0.5, 50 px cropped each side. [60, 0, 80, 40] keeps source
+        // columns 100..140, i.e. [0, 0, 20, 20] of the pair: 400 px^2, not 0.
+        let a = ann(json!({"id": 1, "bbox": [60, 0, 80, 40], "area": 3200, "segmentation": []}));
+        let out = fit_annotation(&a, (400, 200), &fixed(100, 100))
+            .unwrap()
+            .unwrap();
+        assert_eq!(out["bbox"], json!([0.0, 0.0, 20.0, 20.0]));
+        assert_eq!(out["area"], json!(400.0));
+        assert_eq!(out["segmentation"], json!([]));
+    }
+
+    #[test]
+    fn degenerate_and_outside_annotations_are_dropped_at_every_size() {
+        let native = Fit::new((400, 200), Size::Native);
+        let cases = [
+            (
+                json!({"segmentation": [[1, 1, 5, 5]]}),
+                Drop::DegeneratePolygon,
+            ),
+            (
+                json!({"segmentation": [[410, 0, 430, 0, 420, 20]]}),
+                Drop::OutsideImage,
+            ),
+            (json!({"bbox": [10, 10, 0, 5]}), Drop::EmptyBox),
+            (json!({"bbox": [500, 10, 10, 5]}), Drop::OutsideImage),
+            (
+                json!({"segmentation": {"size": [200, 400], "counts": [80000]}}),
+                Drop::EmptyMask,
+            ),
+        ];
+        for (a, reason) in cases {
+            for fit in [native, fixed(100, 100)] {
+                let got = fit_annotation(&ann(a.clone()), (400, 200), &fit).unwrap();
+                assert_eq!(got.err(), Some(reason), "{a}");
+            }
+        }
+        // Past the edge at the native size: clipped, area measured again.
+        let a = ann(json!({"bbox": [390, 190, 30, 30], "area": 900}));
+        let out = fit_annotation(&a, (400, 200), &native).unwrap().unwrap();
+        assert_eq!(out["bbox"], json!([390.0, 190.0, 10.0, 10.0]));
+        assert_eq!(out["area"], json!(100.0));
+        // Inside at the native size: copied unchanged.
+        let a = ann(json!({"bbox": [1, 2, 3, 4], "area": 12}));
+        assert_eq!(fit_annotation(&a, (400, 200), &native).unwrap().unwrap(), a);
+    }
+
+    #[test]
+    fn malformed_annotations_fail_with_what_is_wrong() {
+        let fit = Fit::new((400, 200), Size::Native);
+        let e = fit_annotation(&ann(json!({"segmentation": [[1, 2, 3]]})), (400, 200), &fit);
+        assert!(e.unwrap_err().contains("odd number of coordinates (3)"));
+        let e = fit_annotation(&ann(json!({"bbox": [1, 2, -3, 4]})), (400, 200), &fit);
+        assert!(e.unwrap_err().contains("negative width or height"));
+        let e = fit_annotation(&ann(json!({"bbox": [1, 2, "3", 4]})), (400, 200), &fit);
+        assert!(e.unwrap_err().contains("is not [x, y, width, height]"));
+    }
+}
