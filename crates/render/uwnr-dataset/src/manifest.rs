@@ -88,6 +88,10 @@ pub struct Settings {
     /// completes; not compared on resume).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub strength: Option<crate::target::StrengthSummary>,
+    /// Annotations dropped over the folder's pairs, by reason (written when an unsharded run
+    /// ends; not compared on resume).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub labels_dropped: Option<crate::labels::DropCounts>,
 }
 
 /// One pair of the plan: its id, global index and clean image.
@@ -164,6 +168,8 @@ impl Settings {
         let (mut a, mut b) = (self.clone(), other.clone());
         a.strength = None;
         b.strength = None;
+        a.labels_dropped = None;
+        b.labels_dropped = None;
         first_difference(&a, &b)
     }
 }

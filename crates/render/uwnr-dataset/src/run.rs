@@ -125,6 +125,9 @@ pub struct Summary {
     pub worker_errors: Vec<String>,
     /// PSNR(underwater, clean) over every pair in the manifest (this run's and earlier ones').
     pub strength: Option<StrengthSummary>,
+    /// Annotations dropped under the label rules ([`crate::labels::rules`]) over every pair in
+    /// the manifest, by reason.
+    pub labels_dropped: crate::labels::DropCounts,
 }
 
 impl Summary {
@@ -151,6 +154,33 @@ type RefCache = Vec<OnceLock<std::result::Result<Arc<ReferenceStyle>, String>>>;
 /// Errors are for runs that cannot start (bad inputs, a folder made with other settings, an
 /// unwritable folder); items that fail are listed in the summary and in the failure file.
 pub fn generate(
+    out: &Path,
+    spec: &Spec,
+    renderer: &Renderer,
+    opts: &RunOptions,
+    stop: &AtomicBool,
+    observer: &mut dyn FnMut(Event<'_>),
+) -> Result<Summary> {
+    let existed = out.exists();
+    let result = generate_in(out, spec, renderer, opts, stop, observer);
+    // A run that fails before making anything leaves no folder it created (a folder that
+    // existed before is left as it was).
+    if result.is_err() && !existed && !holds_pairs(out) {
+        let _ = std::fs::remove_dir_all(out);
+    }
+    result
+}
+
+/// Whether `out` has a manifest with a line in it (this run made something worth keeping).
+fn holds_pairs(out: &Path) -> bool {
+    crate::manifest::metadata_files(out).is_ok_and(|(manifests, _)| {
+        manifests
+            .iter()
+            .any(|m| std::fs::metadata(out.join(m)).is_ok_and(|md| md.len() > 0))
+    })
+}
+
+fn generate_in(
     out: &Path,
     spec: &Spec,
     renderer: &Renderer,
@@ -256,6 +286,7 @@ pub fn generate(
         masks: settings_masks,
         target: calibration.as_ref().map(WaterTarget::record),
         strength: None,
+        labels_dropped: None,
     };
     match Settings::read(out) {
         Ok(existing) => {
@@ -455,14 +486,24 @@ pub fn generate(
     }
     let strengths: Vec<f32> = kept.iter().filter_map(|r| r.strength_db).collect();
     summary.strength = StrengthSummary::of(&strengths);
+    for r in &kept {
+        if let Some(info) = &r.labels_info {
+            summary.labels_dropped.merge(&info.dropped);
+        }
+    }
     if !summary.interrupted {
         // Put the manifest in pair order, so the folder is the same whatever the job count.
         write_manifest(&manifest_path, &mut kept)?;
-        if opts.shard.is_none() && summary.complete {
-            // The strength of the finished folder, kept beside its settings (not compared on
-            // resume).
+        if opts.shard.is_none() && (summary.complete || settings.labels.is_some()) {
+            // The strength of the finished folder and the annotations its labels dropped, kept
+            // beside its settings (not compared on resume).
             let mut finished = settings.clone();
-            finished.strength = summary.strength.clone();
+            if summary.complete {
+                finished.strength = summary.strength.clone();
+            }
+            if settings.labels.is_some() || settings.masks.is_some() {
+                finished.labels_dropped = Some(summary.labels_dropped.clone());
+            }
             finished.write(out)?;
         }
         if opts.shard.is_none() {
