@@ -186,15 +186,53 @@ pub fn first_difference<T: Serialize>(a: &T, b: &T) -> Result<Option<(String, St
     let (Some(ao), Some(bo)) = (a.as_object(), b.as_object()) else {
         return Ok((a != b).then(|| ("settings".into(), brief(&a), brief(&b))));
     };
-    let null = serde_json::Value::Null;
-    let keys: std::collections::BTreeSet<&String> = ao.keys().chain(bo.keys()).collect();
-    for key in keys {
-        let (va, vb) = (ao.get(key).unwrap_or(&null), bo.get(key).unwrap_or(&null));
-        if va != vb {
-            return Ok(Some((key.clone(), brief(va), brief(vb))));
-        }
+    Ok(nested_difference("", &a, &b))
+}
+
+/// The path (`labels.file`, `clean[3]`) of the first difference between two JSON values, with
+/// both values shown briefly: descending into objects and equal-length lists, so the message
+/// names what differs instead of showing two long values that look alike.
+fn nested_difference(
+    path: &str,
+    a: &serde_json::Value,
+    b: &serde_json::Value,
+) -> Option<(String, String, String)> {
+    use serde_json::Value;
+    if a == b {
+        return None;
     }
-    Ok(None)
+    match (a, b) {
+        (Value::Object(ao), Value::Object(bo)) => {
+            let null = Value::Null;
+            let keys: std::collections::BTreeSet<&String> = ao.keys().chain(bo.keys()).collect();
+            keys.into_iter().find_map(|key| {
+                let p = if path.is_empty() {
+                    key.clone()
+                } else {
+                    format!("{path}.{key}")
+                };
+                nested_difference(
+                    &p,
+                    ao.get(key).unwrap_or(&null),
+                    bo.get(key).unwrap_or(&null),
+                )
+            })
+        }
+        (Value::Array(x), Value::Array(y)) if x.len() == y.len() => x
+            .iter()
+            .zip(y)
+            .enumerate()
+            .find_map(|(i, (u, v))| nested_difference(&format!("{path}[{i}]"), u, v)),
+        _ => Some((
+            if path.is_empty() {
+                "settings".into()
+            } else {
+                path.to_string()
+            },
+            brief(a),
+            brief(b),
+        )),
+    }
 }
 
 fn brief(v: &serde_json::Value) -> String {

@@ -288,8 +288,12 @@ fn generate_in(
         strength: None,
         labels_dropped: None,
     };
+    let mut label_changes = Vec::new();
     match Settings::read(out) {
         Ok(existing) => {
+            let (existing, changed) =
+                crate::labels::resume::split_image_fingerprints(&existing, &settings);
+            label_changes = changed;
             if let Some((field, there, now)) = existing.first_difference(&settings)? {
                 return Err(DatasetError::SettingsMismatch {
                     out: out.to_path_buf(),
@@ -346,6 +350,29 @@ fn generate_in(
         } else {
             dropped += 1;
         }
+    }
+    // Labels changed since the last run: fine for images none of whose pairs is made (their
+    // pairs failed: the fix lets them be made), refused for the others, naming the file.
+    if !label_changes.is_empty() {
+        if let Some((r, i)) = kept.iter().find_map(|r| {
+            let i = by_id.get(r.id.as_str())?.clean_index;
+            label_changes.binary_search(&i).is_ok().then_some((r, i))
+        }) {
+            return Err(DatasetError::Invalid(format!(
+                "{}: the labels of {} differ from those pair {} of {} was made with: restore \
+                 them, or make the dataset in another output folder",
+                labels.files_of(i).join(", "),
+                cleans[i].display(),
+                r.id,
+                out.display()
+            )));
+        }
+        observer(Event::Note(&format!(
+            "note: the labels of {} clean image(s) changed since the last run (none of their \
+             pairs was made): their pairs are made with the new labels",
+            label_changes.len()
+        )));
+        settings.write(out)?;
     }
     if dropped > 0 {
         observer(Event::Note(&format!(

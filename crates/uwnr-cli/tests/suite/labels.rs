@@ -352,6 +352,30 @@ fn bad_label_files_are_refused_or_listed() {
     assert_eq!(coco_out["images"].as_array().unwrap().len(), 2);
     let o = uwnr(&["dataset", "verify", s(&out)]);
     assert!(o.status.success(), "{}", stderr(&o));
+    // The label file fixed, the same command finishes the failed pairs.
+    std::fs::write(&bad, json_file(&set.coco).to_string()).unwrap();
+    let o = run(&set, &out, &["--coco", s(&bad)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(!out.join("failed.jsonl").exists());
+    let coco_out = json_file(&out.join("coco.json"));
+    assert_eq!(coco_out["images"].as_array().unwrap().len(), 4);
+    let o = uwnr(&["dataset", "verify", s(&out)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // A label changed for pairs already made: refused, naming the file and the image.
+    let mut coco = json_file(&set.coco);
+    coco["annotations"][0]["bbox"] = json!([31, 10, 20, 20]);
+    std::fs::write(&bad, coco.to_string()).unwrap();
+    let o = run(&set, &out, &["--coco", s(&bad)]);
+    assert!(!o.status.success());
+    let e = stderr(&o);
+    assert!(
+        e.contains("odd.json (the entry of a.png)") && e.contains("pair a_0"),
+        "{e}"
+    );
+    // Another COCO file altogether: the message names the field, not two long snippets.
+    let o = run(&set, &out, &["--coco", s(&set.coco)]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("labels.file"), "{}", stderr(&o));
 
     // A mask of another size: listed, naming the mask.
     let masks = tmp.path().join("masks-bad");
