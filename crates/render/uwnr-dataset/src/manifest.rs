@@ -183,9 +183,9 @@ pub fn first_difference<T: Serialize>(a: &T, b: &T) -> Result<Option<(String, St
             .map_err(|e| DatasetError::Invalid(format!("cannot compare the dataset settings: {e}")))
     };
     let (a, b) = (json(a)?, json(b)?);
-    let (Some(ao), Some(bo)) = (a.as_object(), b.as_object()) else {
+    if !(a.is_object() && b.is_object()) {
         return Ok((a != b).then(|| ("settings".into(), brief(&a), brief(&b))));
-    };
+    }
     Ok(nested_difference("", &a, &b))
 }
 
