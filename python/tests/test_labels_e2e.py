@@ -189,3 +189,38 @@ def test_readme_example_with_the_bundled_samples(samples, cli, tmp_path):
     mask = coco.annToMask(anns[0])
     assert mask.shape == (240, 320) and mask.sum() > 0
     assert len(coco.getImgIds()) == 4
+
+
+def test_webdataset_decoder_keeps_16_bit_mask_values(cli, tmp_path):
+    """16-bit instance masks written as WebDataset shards come back with their values through
+    `uwnr.webdataset_decoder` (``.decode("rgb8")`` alone would turn them into {0, 255})."""
+    wds = pytest.importorskip("webdataset", reason="webdataset is not installed")
+    from conftest import gradient, water
+
+    clean, refs, masks = tmp_path / "clean", tmp_path / "refs", tmp_path / "masks"
+    for d in (clean, refs, masks):
+        d.mkdir()
+    Image.fromarray(gradient(48, 64)).save(clean / "a.png")
+    Image.fromarray(water(40, 40)).save(refs / "r.png")
+    ids = np.zeros((48, 64), np.uint16)
+    ids[5:20, 5:30] = 300
+    ids[25:45, 30:60] = 65535
+    Image.fromarray(ids.astype(np.int32)).convert("I;16").save(masks / "a.png")
+    assert np.array_equal(np.asarray(Image.open(masks / "a.png")).astype(np.uint16), ids)
+    out = tmp_path / "out"
+    cmd = [
+        str(cli), "dataset", "--clean", str(clean), "--references", str(refs),
+        "--masks", str(masks), "--method", "reinhard", "--format", "webdataset",
+        "--no-gallery", "-o", str(out),
+    ]
+    done = subprocess.run(cmd, capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    urls = uwnr.webdataset_urls(out)
+    sample = next(iter(wds.WebDataset(urls, shardshuffle=False, empty_check=False).decode(
+        uwnr.webdataset_decoder, "rgb8")))
+    mask = sample["mask.png"]
+    assert mask.dtype == np.uint16 and mask.shape == (48, 64)
+    assert set(np.unique(mask).tolist()) == {0, 300, 65535}
+    assert np.array_equal(mask, ids)
+    # Other members still go to the next handler.
+    assert sample["underwater.png"].shape == (48, 64, 3)

@@ -366,7 +366,7 @@ def depth(clean: ImageLike) -> np.ndarray:
 
 from . import metrics  # noqa: E402
 from .augment import UnderwaterAugment  # noqa: E402
-from .dataset import PairDataset, webdataset_urls  # noqa: E402
+from .dataset import PairDataset, webdataset_decoder, webdataset_urls  # noqa: E402
 
 __all__ = [
     "DEVICES",
@@ -382,5 +382,6 @@ __all__ = [
     "depth",
     "lightfield",
     "metrics",
+    "webdataset_decoder",
     "webdataset_urls",
 ]

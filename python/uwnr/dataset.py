@@ -289,3 +289,26 @@ def webdataset_urls(folder: Union[str, os.PathLike]) -> List[str]:
                 f"{index}: expected {{'shards': [{{'file': ...}}, ...]}}: {e!r}"
             ) from None
     return [os.path.join(root, shard["file"]) for shard in shards]
+
+
+def webdataset_decoder(key: str, data: bytes) -> Optional[np.ndarray]:
+    """A WebDataset decoder handler that keeps label-mask values: ``*.mask.png`` members are
+    decoded with Pillow as integer arrays exactly as stored (16-bit instance ids stay uint16,
+    palette masks give their indices, grey masks uint8; RGB masks HxWx3), never scaled to
+    ``rgb8``. Every other member is left to the next handler (``None``), so use it first::
+
+        wds.WebDataset(urls).decode(uwnr.webdataset_decoder, "rgb8")
+    """
+    if not key.lower().endswith("mask.png"):
+        return None
+    import io
+
+    from PIL import Image
+
+    with Image.open(io.BytesIO(data)) as img:
+        img.load()
+        if img.mode in ("I;16", "I;16B", "I;16L", "I"):
+            # Pillow reads 16-bit grey PNGs as I;16 or I (32-bit); the values are 16-bit.
+            return np.asarray(img).astype(np.uint16)
+        # "P" (palette indices), "L", "RGB", "RGBA", "LA": the stored values as they are.
+        return np.asarray(img).copy()

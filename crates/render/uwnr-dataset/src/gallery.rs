@@ -206,6 +206,7 @@ mod tests {
             labels: None,
             mask: None,
             strength_db: None,
+            labels_info: None,
         }
     }
 

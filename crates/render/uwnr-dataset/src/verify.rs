@@ -265,8 +265,26 @@ fn check_record_fields(settings: &Settings, r: &Record, at: &str, problems: &mut
     }
 }
 
-/// A pair's label files: present, readable, and describing an image of the pair's size.
+/// A pair's label files: present, readable, describing an image of the pair's size, and (where
+/// the manifest records it) with the fingerprint they were written with.
 fn check_labels(out: &Path, r: &Record, limits: &DecodeLimits, problems: &mut Vec<String>) {
+    if let Some(info) = &r.labels_info {
+        for (f, fp) in [
+            (&r.labels, &info.labels_fingerprint),
+            (&r.mask, &info.mask_fingerprint),
+        ] {
+            if let (Some(f), Some(fp)) = (f, fp)
+                && let Ok(bytes) = std::fs::read(out.join(f))
+                && uwnr_render::record::fingerprint(&bytes) != *fp
+            {
+                problems.push(format!(
+                    "{f} (pair {}) was changed after it was written (its fingerprint is not the \
+                     manifest's)",
+                    r.id
+                ));
+            }
+        }
+    }
     if let Some(f) = &r.labels {
         let path = out.join(f);
         match std::fs::read(&path) {
@@ -345,6 +363,16 @@ fn check_coco(
             return;
         }
     };
+    let mut sorted: Vec<Record> = records.to_vec();
+    sorted.sort_by_key(|r| r.index);
+    if let Ok(Some(expect)) = crate::labels::coco_bytes(out, settings.labels.as_ref(), &sorted)
+        && std::fs::read(&path).is_ok_and(|b| b != expect)
+    {
+        problems.push(format!(
+            "{COCO_FILE} differs from its pairs' labels files (edited after it was written?): run \
+             the same command again to write it anew"
+        ));
+    }
     let mut ids: Vec<u64> = v["images"]
         .as_array()
         .map(|a| a.iter().filter_map(|i| i["id"].as_u64()).collect())

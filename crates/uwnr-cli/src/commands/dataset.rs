@@ -173,6 +173,14 @@ fn make(a: &DatasetMakeArgs) -> Result<ExitCode> {
     if let Some(strength) = &summary.strength {
         eprintln!("{}", strength.line());
     }
+    if !summary.labels_dropped.is_empty() {
+        eprintln!(
+            "labels: {} annotation(s) dropped over the dataset's pairs ({}); see labels_info in \
+             manifest.jsonl",
+            summary.labels_dropped.total(),
+            summary.labels_dropped.line()
+        );
+    }
     if !summary.failures.is_empty() {
         eprintln!("failed items:");
         for f in &summary.failures {
@@ -198,8 +206,13 @@ fn make(a: &DatasetMakeArgs) -> Result<ExitCode> {
     }
     if !summary.complete {
         let made = summary.rendered + summary.skipped;
+        let next = if summary.failures.is_empty() {
+            "run the same command again to finish"
+        } else {
+            "fix the inputs listed in failed.jsonl, then run the same command again to finish"
+        };
         eprintln!(
-            "uwnr: incomplete: {made} of {} planned pairs made{}; run the same command again to finish",
+            "uwnr: incomplete: {made} of {} planned pairs made{}; {next}",
             summary.planned,
             summary
                 .worker_errors

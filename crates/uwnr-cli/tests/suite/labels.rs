@@ -310,7 +310,8 @@ fn bad_label_files_are_refused_or_listed() {
         e.contains("broken.json") && e.contains("not a JSON file"),
         "{e}"
     );
-    assert!(!out.join("manifest.jsonl").exists());
+    // The folder the run would have created is not left behind, empty.
+    assert!(!out.exists());
 
     // An annotation of an image the file does not list: refused, naming the annotation.
     let mut coco = json_file(&set.coco);
@@ -325,25 +326,56 @@ fn bad_label_files_are_refused_or_listed() {
         "{e}"
     );
 
-    // A box outside its image: that image's pairs fail, listed with the annotation; the other
-    // image's pairs are made.
+    // A malformed annotation (an odd-length polygon): that image's pairs fail, listed with the
+    // file, the annotation id and what is wrong; the other image's pairs are made.
     let mut coco = json_file(&set.coco);
-    coco["annotations"][2]["bbox"] = json!([50, 50, 30, 30]);
-    let bad = tmp.path().join("outside.json");
+    coco["annotations"][2]["segmentation"] = json!([[10, 20, 40, 20, 40]]);
+    let bad = tmp.path().join("odd.json");
     std::fs::write(&bad, coco.to_string()).unwrap();
     let out = tmp.path().join("o3");
     let o = run(&set, &out, &["--coco", s(&bad)]);
     assert!(!o.status.success());
     let failed = std::fs::read_to_string(out.join("failed.jsonl")).unwrap();
     assert!(
-        failed.contains("annotation id 1010") && failed.contains("outside the 60x60 image"),
+        failed.contains("odd.json")
+            && failed.contains("annotation id 1010")
+            && failed.contains("odd number of coordinates (5)"),
         "{failed}"
     );
     assert!(failed.contains("b_0") && failed.contains("b_1"), "{failed}");
+    assert!(
+        stderr(&o).contains("fix the inputs listed in failed.jsonl"),
+        "{}",
+        stderr(&o)
+    );
     let coco_out = json_file(&out.join("coco.json"));
     assert_eq!(coco_out["images"].as_array().unwrap().len(), 2);
     let o = uwnr(&["dataset", "verify", s(&out)]);
     assert!(o.status.success(), "{}", stderr(&o));
+    // The label file fixed, the same command finishes the failed pairs.
+    std::fs::write(&bad, json_file(&set.coco).to_string()).unwrap();
+    let o = run(&set, &out, &["--coco", s(&bad)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(!out.join("failed.jsonl").exists());
+    let coco_out = json_file(&out.join("coco.json"));
+    assert_eq!(coco_out["images"].as_array().unwrap().len(), 4);
+    let o = uwnr(&["dataset", "verify", s(&out)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // A label changed for pairs already made: refused, naming the file and the image.
+    let mut coco = json_file(&set.coco);
+    coco["annotations"][0]["bbox"] = json!([31, 10, 20, 20]);
+    std::fs::write(&bad, coco.to_string()).unwrap();
+    let o = run(&set, &out, &["--coco", s(&bad)]);
+    assert!(!o.status.success());
+    let e = stderr(&o);
+    assert!(
+        e.contains("odd.json (the entry of a.png)") && e.contains("pair a_0"),
+        "{e}"
+    );
+    // Another COCO file altogether: the message names the field, not two long snippets.
+    let o = run(&set, &out, &["--coco", s(&set.coco)]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("labels.file"), "{}", stderr(&o));
 
     // A mask of another size: listed, naming the mask.
     let masks = tmp.path().join("masks-bad");
@@ -442,4 +474,126 @@ fn webdataset_shards_are_deterministic_and_verified() {
     let o = uwnr(&["dataset", "verify", s(&a)]);
     assert!(!o.status.success());
     assert!(stderr(&o).contains("uwnr dataset export"), "{}", stderr(&o));
+}
+
+#[test]
+fn degenerate_and_outside_labels_are_clipped_or_dropped_and_counted() {
+    let tmp = tempfile::tempdir().unwrap();
+    let set = set(tmp.path());
+    // b.png (60x60): a box 19 px past the edge (clipped), a 2-point polygon, a polygon wholly
+    // outside and a zero-width box (dropped, counted).
+    let mut coco = json_file(&set.coco);
+    coco["annotations"][2]["bbox"] = json!([50, 50, 29, 5]);
+    coco["annotations"][2]["segmentation"] = json!([]);
+    coco["annotations"][2]["area"] = json!(145);
+    let extra = [
+        json!({"id": 2000, "image_id": 101, "category_id": 1, "segmentation": [[1, 1, 5, 5]]}),
+        json!({"id": 2001, "image_id": 101, "category_id": 1,
+               "segmentation": [[70, 0, 90, 0, 80, 20]]}),
+        json!({"id": 2002, "image_id": 101, "category_id": 1, "bbox": [5, 5, 0, 10]}),
+    ];
+    coco["annotations"]
+        .as_array_mut()
+        .unwrap()
+        .extend(extra.iter().cloned());
+    let edges = tmp.path().join("edges.json");
+    std::fs::write(&edges, coco.to_string()).unwrap();
+    for (dir, size) in [("native", None), ("sized", Some("32x32"))] {
+        let out = tmp.path().join(dir);
+        let mut args = vec![
+            "dataset",
+            "--clean",
+            s(&set.clean),
+            "--references",
+            s(&set.refs),
+            "--output",
+            s(&out),
+            "--method",
+            "reinhard",
+            "-k",
+            "2",
+            "--no-gallery",
+            "--coco",
+            s(&edges),
+        ];
+        if let Some(size) = size {
+            args.extend(["--size", size]);
+        }
+        let o = uwnr(&args);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let e = stderr(&o);
+        assert!(e.contains("labels: "), "{e}");
+        let coco_out = json_file(&out.join("coco.json"));
+        let ids: Vec<u64> = coco_out["annotations"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter_map(|a| a["id"].as_u64())
+            .collect();
+        // None of the dropped annotations' copies remain: each pair keeps its image's 2 good
+        // ones (at 32x32 the crop removes one of a's).
+        assert_eq!(
+            ids.len(),
+            4 * 2 - usize::from(size.is_some()) * 2,
+            "{dir}: {ids:?}"
+        );
+        let manifest = std::fs::read_to_string(out.join("manifest.jsonl")).unwrap();
+        let b0: Value = manifest
+            .lines()
+            .map(|l| serde_json::from_str::<Value>(l).unwrap())
+            .find(|r| r["id"] == "b_0")
+            .unwrap();
+        assert_eq!(
+            b0["labels_info"]["dropped"],
+            json!({"degenerate_polygon": 1, "empty_box": 1, "outside_image": 1}),
+            "{dir}"
+        );
+        let settings = json_file(&out.join("dataset.json"));
+        assert_eq!(settings["labels_dropped"]["outside_image"], 2, "{dir}");
+        if size.is_none() {
+            // At the native size the clipped box keeps what is inside: [50, 50, 10, 5].
+            let b = coco_out["annotations"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .find(|a| a["image_id"] == 3 && a["category_id"] == 1)
+                .unwrap()
+                .clone();
+            assert_eq!(b["bbox"], json!([50.0, 50.0, 10.0, 5.0]));
+            assert_eq!(b["area"], json!(50.0));
+        }
+        let o = uwnr(&["dataset", "verify", s(&out)]);
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+}
+
+#[test]
+fn verify_names_label_files_edited_after_the_run() {
+    let tmp = tempfile::tempdir().unwrap();
+    let set = set(tmp.path());
+    let out = tmp.path().join("out");
+    let o = run(&set, &out, &["--coco", s(&set.coco)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let path = out.join("coco.json");
+    let text = std::fs::read_to_string(&path).unwrap();
+    std::fs::write(
+        &path,
+        text.replacen("[8.0,8.0,16.0,16.0]", "[8.0,8.0,16.0,17.0]", 1),
+    )
+    .unwrap();
+    assert_ne!(std::fs::read_to_string(&path).unwrap(), text);
+    let o = uwnr(&["dataset", "verify", s(&out)]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("coco.json differs"), "{}", stderr(&o));
+    std::fs::write(&path, &text).unwrap();
+    let pair = out.join("labels/a_0.json");
+    let t = std::fs::read_to_string(&pair).unwrap();
+    std::fs::write(&pair, t.replacen("16.0", "17.0", 1)).unwrap();
+    let o = uwnr(&["dataset", "verify", s(&out)]);
+    assert!(!o.status.success());
+    assert!(
+        stderr(&o).contains("labels/a_0.json (pair a_0) was changed"),
+        "{}",
+        stderr(&o)
+    );
 }

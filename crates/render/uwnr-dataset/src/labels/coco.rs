@@ -4,21 +4,21 @@
 //!
 //! What is wrong with the file as a whole (not JSON, no `images`, an annotation of an image that
 //! is not listed, a category that does not exist, duplicate ids) refuses the run with an error
-//! naming the file and the entry. What is wrong with one image's labels (a box outside its image,
-//! an RLE mask of another size, the listed size differing from the file's) makes that image's
-//! pairs fail, listed in `failed.jsonl` with the file and the annotation id; the run goes on.
+//! naming the file and the entry. What is malformed in one image's labels (an odd-length
+//! polygon, a negative box size, an RLE mask of another size, the listed size differing from the
+//! file's) makes that image's pairs fail, listed in `failed.jsonl` with the file and the
+//! annotation id; the run goes on. Geometry past the edge and degenerate shapes follow the
+//! [`super::rules`]: clipped, or dropped and counted.
 
 use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 
 use serde_json::{Map, Value, json};
 
-use super::geometry::{Fit, polygon_area};
-use super::rle::{Mask, counts_from_string, counts_to_string};
+use super::geometry::Fit;
+use super::rules::{Drop, DropCounts};
 
-/// How far (pixels) a box may stick out of its image and be clipped rather than refused:
-/// annotation tools round outward.
-const EDGE_TOLERANCE: f64 = 1.0;
+mod fit;
 
 /// A checked COCO file.
 #[derive(Debug)]
@@ -216,6 +216,18 @@ impl CocoFile {
         self.images.len()
     }
 
+    /// The fingerprint of entry `image` with its annotations and the first annotation id its
+    /// pairs take: what its pairs' labels depend on.
+    #[must_use]
+    pub fn image_fingerprint(&self, image: usize, first_id: u64) -> String {
+        let e = &self.images[image];
+        let v = json!({
+            "id": e.id, "file_name": e.file_name, "width": e.width, "height": e.height,
+            "keep": e.keep, "annotations": self.annotations[image], "first_id": first_id,
+        });
+        uwnr_render::record::fingerprint(v.to_string().as_bytes())
+    }
+
     /// Number of annotations of entry `image`.
     #[must_use]
     pub fn annotation_count(&self, image: usize) -> usize {
@@ -249,7 +261,7 @@ impl CocoFile {
         let mut annotations = Vec::with_capacity(self.annotations[image].len());
         for a in &self.annotations[image] {
             let id = a.get("id").cloned().unwrap_or(Value::Null);
-            let fitted = fit_annotation(a, (e.width, e.height), fit)
+            let fitted = fit::fit_annotation(a, (e.width, e.height), fit)
                 .map_err(|reason| at(format!("annotation id {id}: {reason}")))?;
             annotations.push(fitted);
         }
@@ -268,11 +280,23 @@ pub struct FittedImage {
     source_id: Value,
     source_file_name: String,
     keep: Map<String, Value>,
-    /// `None` where the crop removed the annotation (its id is then skipped).
-    annotations: Vec<Option<Map<String, Value>>>,
+    /// `Err` where the annotation was dropped (its id is then skipped).
+    annotations: Vec<Result<Map<String, Value>, Drop>>,
 }
 
 impl FittedImage {
+    /// The annotations dropped, by reason (the same for every pair of the image).
+    #[must_use]
+    pub fn dropped(&self) -> DropCounts {
+        let mut out = DropCounts::default();
+        for a in &self.annotations {
+            if let Err(d) = a {
+                out.add(*d);
+            }
+        }
+        out
+    }
+
     /// The pair's labels file: `{"image": {...}, "annotations": [...]}` with the image id
     /// `index + 1` and annotation ids from `first_id` on, in the source's order.
     #[must_use]
@@ -294,7 +318,7 @@ impl FittedImage {
             .iter()
             .enumerate()
             .filter_map(|(j, a)| {
-                let mut a = a.clone()?;
+                let mut a = a.clone().ok()?;
                 a.insert("id".into(), json!(first_id + j as u64));
                 a.insert("image_id".into(), json!(image_id));
                 Some(Value::Object(a))
@@ -302,182 +326,6 @@ impl FittedImage {
             .collect();
         json!({ "image": image, "annotations": annotations })
     }
-}
-
-/// Rounds a pixel coordinate to 1/1000 pixel, so files stay short and exact to read back.
-fn r3(v: f64) -> f64 {
-    let r = (v * 1000.0).round() / 1000.0;
-    if r == 0.0 { 0.0 } else { r }
-}
-
-fn numbers(v: &Value) -> Option<Vec<f64>> {
-    v.as_array()?.iter().map(Value::as_f64).collect()
-}
-
-/// One annotation through the fit; `Ok(None)` when nothing of it is left in the pair.
-fn fit_annotation(
-    a: &Map<String, Value>,
-    (w, h): (usize, usize),
-    fit: &Fit,
-) -> Result<Option<Map<String, Value>>, String> {
-    let bbox = match a.get("bbox") {
-        Some(v) => {
-            let b = numbers(v).filter(|b| b.len() == 4 && b.iter().all(|x| x.is_finite()));
-            let Some(b) = b else {
-                return Err(format!("bbox {v} is not [x, y, width, height]"));
-            };
-            if b[2] < 0.0 || b[3] < 0.0 {
-                return Err(format!("bbox {v} has a negative size"));
-            }
-            let t = EDGE_TOLERANCE;
-            if b[0] < -t || b[1] < -t || b[0] + b[2] > w as f64 + t || b[1] + b[3] > h as f64 + t {
-                return Err(format!("bbox {v} lies outside the {w}x{h} image"));
-            }
-            Some(b)
-        }
-        None => None,
-    };
-    let mut out = a.clone();
-    if fit.is_identity() {
-        return Ok(Some(out));
-    }
-    let mut cut = false;
-    let mut seg_box: Option<[f64; 4]> = None;
-    let mut seg_area: Option<f64> = None;
-    match a.get("segmentation") {
-        None => {}
-        Some(Value::Array(polys)) => {
-            let mut kept = Vec::new();
-            let mut area = 0.0;
-            for p in polys {
-                let pts = numbers(p)
-                    .filter(|p| p.len() % 2 == 0 && p.iter().all(|x| x.is_finite()))
-                    .ok_or_else(|| {
-                        "a segmentation polygon is not a list of x, y numbers".to_string()
-                    })?;
-                let moved: Vec<f64> = pts
-                    .chunks_exact(2)
-                    .flat_map(|q| {
-                        let (x, y) = fit.point(q[0], q[1]);
-                        [x, y]
-                    })
-                    .collect();
-                cut |= moved.chunks_exact(2).any(|q| !fit.inside((q[0], q[1])));
-                if let Some(c) = fit.polygon(&pts) {
-                    area += polygon_area(&c);
-                    for q in c.chunks_exact(2) {
-                        let b = seg_box.get_or_insert([q[0], q[1], q[0], q[1]]);
-                        *b = [
-                            b[0].min(q[0]),
-                            b[1].min(q[1]),
-                            b[2].max(q[0]),
-                            b[3].max(q[1]),
-                        ];
-                    }
-                    kept.push(Value::from(c.into_iter().map(r3).collect::<Vec<f64>>()));
-                }
-            }
-            if !polys.is_empty() && kept.is_empty() {
-                return Ok(None);
-            }
-            seg_area = Some(area);
-            out.insert("segmentation".into(), Value::Array(kept));
-        }
-        Some(Value::Object(rle)) => {
-            let size = rle
-                .get("size")
-                .and_then(numbers)
-                .filter(|s| s.len() == 2)
-                .ok_or_else(|| "an RLE segmentation has no [height, width] \"size\"".to_string())?;
-            let (rh, rw) = (size[0] as usize, size[1] as usize);
-            if (rw, rh) != (w, h) {
-                return Err(format!("its RLE mask is {rw}x{rh}, the image is {w}x{h}"));
-            }
-            let compressed = rle.get("counts").is_some_and(Value::is_string);
-            let counts = match rle.get("counts") {
-                Some(Value::String(s)) => counts_from_string(s),
-                Some(Value::Array(c)) => c.iter().map(Value::as_u64).collect(),
-                _ => None,
-            }
-            .ok_or_else(|| "its RLE \"counts\" do not decode".to_string())?;
-            let mask = Mask::from_counts(rh, rw, &counts)
-                .ok_or_else(|| format!("its RLE counts do not add up to {rw}x{rh} pixels"))?;
-            let fitted = mask.fitted(fit);
-            let area = fitted.area();
-            if area == 0 && mask.area() > 0 {
-                return Ok(None);
-            }
-            cut = fitted.area() as f64 + 0.5 < mask.area() as f64 * fit.sx() * fit.sy() * 0.999;
-            let c = fitted.counts();
-            let counts = if compressed {
-                Value::from(counts_to_string(&c))
-            } else {
-                Value::from(c)
-            };
-            let b = fitted.bbox();
-            seg_box = Some([b[0], b[1], b[0] + b[2], b[1] + b[3]]);
-            seg_area = Some(area as f64);
-            out.insert(
-                "segmentation".into(),
-                json!({ "size": [fit.height, fit.width], "counts": counts }),
-            );
-        }
-        Some(other) => return Err(format!("segmentation {other} is neither polygons nor RLE")),
-    }
-    let is_rle = a.get("segmentation").is_some_and(Value::is_object);
-    if let Some(b) = bbox {
-        let Some((mut r, box_cut)) = fit.rect([b[0], b[1], b[0] + b[2], b[1] + b[3]]) else {
-            return Ok(None);
-        };
-        cut |= box_cut;
-        // A box cut by the crop is tightened to what is left of the object's outline.
-        if let (true, Some(s)) = (box_cut, seg_box) {
-            r = [
-                r[0].max(s[0]),
-                r[1].max(s[1]),
-                r[2].min(s[2]),
-                r[3].min(s[3]),
-            ];
-            if r[2] <= r[0] || r[3] <= r[1] {
-                return Ok(None);
-            }
-        }
-        out.insert(
-            "bbox".into(),
-            Value::from(vec![r3(r[0]), r3(r[1]), r3(r[2] - r[0]), r3(r[3] - r[1])]),
-        );
-        if seg_area.is_none() {
-            seg_area = cut.then(|| (r[2] - r[0]) * (r[3] - r[1]));
-        }
-    }
-    if let Some(area) = a.get("area").and_then(Value::as_f64) {
-        let new = match seg_area {
-            Some(s) if cut || is_rle => s,
-            _ => area * fit.sx() * fit.sy(),
-        };
-        out.insert("area".into(), Value::from(r3(new)));
-    }
-    if let Some(kp) = a.get("keypoints") {
-        let k = numbers(kp)
-            .filter(|k| k.len() % 3 == 0)
-            .ok_or_else(|| "keypoints are not x, y, v triplets".to_string())?;
-        let mut moved = Vec::with_capacity(k.len());
-        let mut visible = 0u64;
-        for t in k.chunks_exact(3) {
-            let p = fit.point(t[0], t[1]);
-            if t[2] > 0.0 && fit.inside(p) {
-                moved.extend([r3(p.0), r3(p.1), t[2]]);
-                visible += 1;
-            } else {
-                moved.extend([0.0, 0.0, 0.0]);
-            }
-        }
-        out.insert("keypoints".into(), Value::from(moved));
-        if out.contains_key("num_keypoints") {
-            out.insert("num_keypoints".into(), json!(visible));
-        }
-    }
-    Ok(Some(out))
 }
 
 /// The whole COCO file of a dataset from its pairs' labels files, in pair order.
@@ -508,7 +356,9 @@ pub fn assemble(info: &Value, licenses: &Value, categories: &Value, pairs: Vec<V
 
 #[cfg(test)]
 mod tests {
+    use super::fit::numbers;
     use super::*;
+    use crate::labels::rle::{Mask, counts_from_string, counts_to_string};
     use crate::plan::Size;
 
     fn file(text: &str) -> Result<CocoFile, String> {
@@ -653,9 +503,11 @@ mod tests {
 
     #[test]
     fn labels_that_do_not_fit_their_image_fail_that_image() {
+        // A box past the edge is clipped, not refused (19 px past, at 40x40 -> 20x20).
         let coco = file(
             r#"{"images": [{"id": 1, "file_name": "a.jpg", "width": 40, "height": 40}],
-            "annotations": [{"id": 5, "image_id": 1, "category_id": 1, "bbox": [30, 30, 20, 5]}],
+            "annotations": [{"id": 5, "image_id": 1, "category_id": 1, "bbox": [30, 30, 29, 5],
+              "area": 145}],
             "categories": [{"id": 1}]}"#,
         )
         .unwrap();
@@ -666,11 +518,15 @@ mod tests {
                 height: 20,
             },
         );
-        let e = coco.fitted(0, (40, 40), &fit).unwrap_err();
-        assert!(
-            e.contains("annotation id 5") && e.contains("outside the 40x40 image"),
-            "{e}"
+        let pair = coco
+            .fitted(0, (40, 40), &fit)
+            .unwrap()
+            .pair("a_0", 0, (20, 20), 1);
+        assert_eq!(
+            pair["annotations"][0]["bbox"],
+            json!([15.0, 15.0, 5.0, 2.5])
         );
+        assert_eq!(pair["annotations"][0]["area"], json!(12.5));
         let e = coco.fitted(0, (40, 30), &fit).unwrap_err();
         assert!(e.contains("lists 40x40, the image is 40x30"), "{e}");
         let coco = file(

@@ -9,12 +9,17 @@
 //! OUT/coco.json            COCO: the whole file (every pair, the source's categories)
 //! ```
 //! A pair's labels are written with its images, before its manifest line, so resume, shards,
-//! `merge` and `verify` treat them as they treat the images.
+//! `merge` and `verify` treat them as they treat the images. Degenerate and out-of-bounds
+//! geometry follows one rule for every format ([`rules`]); `dataset.json` records a fingerprint
+//! of each clean image's labels, and each manifest line those of the files written
+//! ([`resume`]).
 
 pub mod coco;
 pub mod geometry;
 pub mod mask;
+pub mod resume;
 pub mod rle;
+pub mod rules;
 pub mod yolo;
 
 use std::path::{Path, PathBuf};
@@ -23,6 +28,8 @@ use serde_json::{Value, json};
 use uwnr_core::io::DecodeLimits;
 
 pub use geometry::Fit;
+pub use resume::LabelsInfo;
+pub use rules::{Drop, DropCounts};
 
 use crate::error::{DatasetError, Result, io_err};
 use crate::manifest::Record;
@@ -72,6 +79,8 @@ enum Boxes {
 #[derive(Debug, Default)]
 pub struct Labels {
     boxes: Option<Boxes>,
+    /// Relative paths of the clean images (as matched).
+    rel: Vec<String>,
     masks: Option<(PathBuf, Vec<Option<PathBuf>>)>,
     /// What the settings record (compared on resume).
     settings_labels: Option<Value>,
@@ -84,13 +93,34 @@ pub struct CleanLabels {
     coco: Option<(coco::FittedImage, u64, usize)>,
     yolo: Option<String>,
     mask: Option<Vec<u8>>,
+    /// Annotations dropped under the [`rules`] (the same for every pair of the image).
+    dropped: DropCounts,
 }
 
-/// A pair's label files: (path relative to the dataset folder, bytes).
+/// A pair's label files: (path relative to the dataset folder, bytes), and what was dropped.
 #[derive(Debug, Default)]
 pub struct PairLabels {
     pub labels: Option<(String, Vec<u8>)>,
     pub mask: Option<(String, Vec<u8>)>,
+    pub dropped: DropCounts,
+}
+
+impl PairLabels {
+    /// What the pair's manifest line records of its labels (`None` without labels).
+    #[must_use]
+    pub fn info(&self) -> Option<LabelsInfo> {
+        if self.labels.is_none() && self.mask.is_none() {
+            return None;
+        }
+        let fp = |f: &Option<(String, Vec<u8>)>| {
+            f.as_ref().map(|(_, b)| uwnr_render::record::fingerprint(b))
+        };
+        Some(LabelsInfo {
+            dropped: self.dropped.clone(),
+            labels_fingerprint: fp(&self.labels),
+            mask_fingerprint: fp(&self.mask),
+        })
+    }
 }
 
 /// Paths of the clean images relative to the folder they were found in (`/`-separated), or their
@@ -163,6 +193,21 @@ fn match_files(
     Ok(files)
 }
 
+/// The fingerprint of each file's bytes (`None` where there is no file).
+fn file_fingerprints(files: &[Option<PathBuf>]) -> Result<Vec<Option<String>>> {
+    files
+        .iter()
+        .map(|f| {
+            f.as_ref()
+                .map(|f| {
+                    let bytes = std::fs::read(f).map_err(io_err(f))?;
+                    Ok(uwnr_render::record::fingerprint(&bytes))
+                })
+                .transpose()
+        })
+        .collect()
+}
+
 impl Labels {
     /// Reads and matches the labels of `cleans` (found under `roots`). Problems with a label
     /// file as a whole are errors; `notes` collects what the user should know (images without
@@ -180,7 +225,10 @@ impl Labels {
             ));
         }
         let rel = relative_paths(cleans, roots);
-        let mut out = Self::default();
+        let mut out = Self {
+            rel: rel.clone(),
+            ..Self::default()
+        };
         if let Some(path) = &inputs.coco {
             let bytes = std::fs::read(path).map_err(io_err(path))?;
             let file = coco::CocoFile::parse(path, &bytes).map_err(DatasetError::Invalid)?;
@@ -211,13 +259,19 @@ impl Labels {
                 let n = e.map_or(0, |e| file.annotation_count(e));
                 next += (n * per_image) as u64;
             }
+            // Per clean image, so that fixing one image's labels lets its failed pairs be made.
+            let images: Vec<Option<String>> = entries
+                .iter()
+                .zip(&first_ids)
+                .map(|(e, &first)| e.map(|e| file.image_fingerprint(e, first)))
+                .collect();
             out.settings_labels = Some(json!({
                 "format": "coco",
                 "file": path.to_string_lossy(),
-                "fingerprint": uwnr_render::record::fingerprint(&bytes),
                 "info": file.info,
                 "licenses": file.licenses,
                 "categories": file.categories,
+                "images": images,
             }));
             out.boxes = Some(Boxes::Coco {
                 file,
@@ -235,20 +289,11 @@ impl Labels {
                 notes,
                 "written as empty label files (no objects), as YOLO reads a missing file",
             )?;
-            // The settings remember the label files' contents, so a resume notices edits.
-            let mut all = Vec::new();
-            for (r, f) in rel.iter().zip(&files) {
-                all.extend_from_slice(r.as_bytes());
-                all.push(0);
-                if let Some(f) = f {
-                    all.extend(std::fs::read(f).map_err(io_err(f))?);
-                }
-                all.push(0);
-            }
+            // The settings remember each label file's contents, so a resume notices edits.
             out.settings_labels = Some(json!({
                 "format": "yolo",
                 "dir": dir.to_string_lossy(),
-                "fingerprint": uwnr_render::record::fingerprint(&all),
+                "images": file_fingerprints(&files)?,
             }));
             out.boxes = Some(Boxes::Yolo {
                 dir: dir.clone(),
@@ -265,10 +310,39 @@ impl Labels {
                 notes,
                 "their pairs are not made (listed in failed.jsonl)",
             )?;
-            out.settings_masks = Some(json!({ "dir": dir.to_string_lossy() }));
+            out.settings_masks = Some(json!({
+                "dir": dir.to_string_lossy(),
+                "images": file_fingerprints(&files)?,
+            }));
             out.masks = Some((dir.clone(), files));
         }
         Ok(out)
+    }
+
+    /// The label files of clean image `i`, for messages: the COCO file and the image's entry,
+    /// the YOLO file, the mask.
+    #[must_use]
+    pub fn files_of(&self, i: usize) -> Vec<String> {
+        let mut out = Vec::new();
+        match &self.boxes {
+            Some(Boxes::Coco { file, .. }) => out.push(format!(
+                "{} (the entry of {})",
+                file.path.display(),
+                self.rel[i]
+            )),
+            Some(Boxes::Yolo { dir, files }) => out.push(match &files[i] {
+                Some(f) => f.display().to_string(),
+                None => format!("{} (no file for {})", dir.display(), self.rel[i]),
+            }),
+            None => {}
+        }
+        if let Some((dir, files)) = &self.masks {
+            out.push(match &files[i] {
+                Some(f) => f.display().to_string(),
+                None => format!("{} (no mask for {})", dir.display(), self.rel[i]),
+            });
+        }
+        out
     }
 
     /// What `dataset.json` records about the labels and the masks.
@@ -301,6 +375,7 @@ impl Labels {
                     ));
                 };
                 let fitted = file.fitted(e, size, fit)?;
+                out.dropped.merge(&fitted.dropped());
                 out.coco = Some((fitted, first_ids[i], file.annotation_count(e)));
             }
             Some(Boxes::Yolo { dir, files }) => {
@@ -314,7 +389,9 @@ impl Labels {
                     let f = files[i].as_deref().unwrap_or(dir);
                     format!("{}: {e}", f.display())
                 })?;
-                out.yolo = Some(yolo::fitted(&text, &objects, fit));
+                let (text, dropped) = yolo::fitted(&text, &objects, fit);
+                out.dropped.merge(&dropped);
+                out.yolo = Some(text);
             }
         }
         if let Some((_, files)) = &self.masks {
@@ -363,15 +440,20 @@ impl CleanLabels {
                 .mask
                 .as_ref()
                 .map(|m| (format!("{MASKS_DIR}/{id}.png"), m.clone())),
+            dropped: self.dropped.clone(),
         }
     }
 }
 
-/// Writes `OUT/coco.json` from the pairs' labels files (when the dataset has COCO labels),
-/// atomically; `records` in pair order.
-pub fn write_coco(out: &Path, settings_labels: Option<&Value>, records: &[Record]) -> Result<()> {
+/// The bytes of `OUT/coco.json` assembled from the pairs' labels files (`None` when the dataset
+/// has no COCO labels); `records` in pair order.
+pub fn coco_bytes(
+    out: &Path,
+    settings_labels: Option<&Value>,
+    records: &[Record],
+) -> Result<Option<Vec<u8>>> {
     let Some(s) = settings_labels.filter(|s| s["format"] == "coco") else {
-        return Ok(());
+        return Ok(None);
     };
     let mut pairs = Vec::with_capacity(records.len());
     for r in records {
@@ -388,6 +470,14 @@ pub fn write_coco(out: &Path, settings_labels: Option<&Value>, records: &[Record
     let mut bytes = serde_json::to_vec(&all)
         .map_err(|e| DatasetError::Invalid(format!("cannot write {COCO_FILE}: {e}")))?;
     bytes.push(b'\n');
-    uwnr_core::io::write_atomic_bytes(&out.join(COCO_FILE), &bytes)?;
+    Ok(Some(bytes))
+}
+
+/// Writes `OUT/coco.json` from the pairs' labels files (when the dataset has COCO labels),
+/// atomically; `records` in pair order.
+pub fn write_coco(out: &Path, settings_labels: Option<&Value>, records: &[Record]) -> Result<()> {
+    if let Some(bytes) = coco_bytes(out, settings_labels, records)? {
+        uwnr_core::io::write_atomic_bytes(&out.join(COCO_FILE), &bytes)?;
+    }
     Ok(())
 }

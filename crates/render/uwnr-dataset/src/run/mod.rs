@@ -20,19 +20,22 @@
 use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-use std::sync::mpsc::{SyncSender, sync_channel};
+use std::sync::mpsc::sync_channel;
 use std::sync::{Arc, OnceLock};
 use std::time::Instant;
 
 use uwnr_core::Image;
-use uwnr_core::io::{DecodeLimits, load_rgb, save_gray16, save_rgb};
+use uwnr_core::io::DecodeLimits;
 use uwnr_core::resize::resize_bilinear;
-use uwnr_depth::{DepthSource, PreparedDepth};
+use uwnr_depth::DepthSource;
 use uwnr_model::ReferenceStyle;
 
 use crate::depth::DepthPolicy;
-use crate::labels::{Fit, LABELS_DIR, LabelInputs, Labels, MASKS_DIR, PairLabels};
+use crate::labels::{Fit, LABELS_DIR, LabelInputs, Labels, MASKS_DIR};
 use crate::target::{StrengthSummary, WaterTarget};
+
+mod worker;
+use worker::Context;
 
 use crate::error::{DatasetError, Result, io_err};
 use crate::manifest::{
@@ -40,10 +43,9 @@ use crate::manifest::{
     Settings, UNDERWATER_DIR, failed_name, manifest_name, read_manifest, temp_target,
     write_failures, write_manifest,
 };
-use crate::plan::{ReferenceOrder, Shard, Size, discover_images, pair_seed};
-use crate::renderer::{ReferenceInput, Renderer};
+use crate::plan::{Shard, Size, discover_images};
+use crate::renderer::Renderer;
 use uwnr_render::JobWorker;
-use uwnr_render::Rendered;
 
 /// What to generate.
 #[derive(Clone, Debug)]
@@ -125,6 +127,9 @@ pub struct Summary {
     pub worker_errors: Vec<String>,
     /// PSNR(underwater, clean) over every pair in the manifest (this run's and earlier ones').
     pub strength: Option<StrengthSummary>,
+    /// Annotations dropped under the label rules ([`crate::labels::rules`]) over every pair in
+    /// the manifest, by reason.
+    pub labels_dropped: crate::labels::DropCounts,
 }
 
 impl Summary {
@@ -151,6 +156,33 @@ type RefCache = Vec<OnceLock<std::result::Result<Arc<ReferenceStyle>, String>>>;
 /// Errors are for runs that cannot start (bad inputs, a folder made with other settings, an
 /// unwritable folder); items that fail are listed in the summary and in the failure file.
 pub fn generate(
+    out: &Path,
+    spec: &Spec,
+    renderer: &Renderer,
+    opts: &RunOptions,
+    stop: &AtomicBool,
+    observer: &mut dyn FnMut(Event<'_>),
+) -> Result<Summary> {
+    let existed = out.exists();
+    let result = generate_in(out, spec, renderer, opts, stop, observer);
+    // A run that fails before making anything leaves no folder it created (a folder that
+    // existed before is left as it was).
+    if result.is_err() && !existed && !holds_pairs(out) {
+        let _ = std::fs::remove_dir_all(out);
+    }
+    result
+}
+
+/// Whether `out` has a manifest with a line in it (this run made something worth keeping).
+fn holds_pairs(out: &Path) -> bool {
+    crate::manifest::metadata_files(out).is_ok_and(|(manifests, _)| {
+        manifests
+            .iter()
+            .any(|m| std::fs::metadata(out.join(m)).is_ok_and(|md| md.len() > 0))
+    })
+}
+
+fn generate_in(
     out: &Path,
     spec: &Spec,
     renderer: &Renderer,
@@ -256,9 +288,14 @@ pub fn generate(
         masks: settings_masks,
         target: calibration.as_ref().map(WaterTarget::record),
         strength: None,
+        labels_dropped: None,
     };
+    let mut label_changes = Vec::new();
     match Settings::read(out) {
         Ok(existing) => {
+            let (existing, changed) =
+                crate::labels::resume::split_image_fingerprints(&existing, &settings);
+            label_changes = changed;
             if let Some((field, there, now)) = existing.first_difference(&settings)? {
                 return Err(DatasetError::SettingsMismatch {
                     out: out.to_path_buf(),
@@ -315,6 +352,29 @@ pub fn generate(
         } else {
             dropped += 1;
         }
+    }
+    // Labels changed since the last run: fine for images none of whose pairs is made (their
+    // pairs failed: the fix lets them be made), refused for the others, naming the file.
+    if !label_changes.is_empty() {
+        if let Some((r, i)) = kept.iter().find_map(|r| {
+            let i = by_id.get(r.id.as_str())?.clean_index;
+            label_changes.binary_search(&i).is_ok().then_some((r, i))
+        }) {
+            return Err(DatasetError::Invalid(format!(
+                "{}: the labels of {} differ from those pair {} of {} was made with: restore \
+                 them, or make the dataset in another output folder",
+                labels.files_of(i).join(", "),
+                cleans[i].display(),
+                r.id,
+                out.display()
+            )));
+        }
+        observer(Event::Note(&format!(
+            "note: the labels of {} clean image(s) changed since the last run (none of their \
+             pairs was made): their pairs are made with the new labels",
+            label_changes.len()
+        )));
+        settings.write(out)?;
     }
     if dropped > 0 {
         observer(Event::Note(&format!(
@@ -455,14 +515,24 @@ pub fn generate(
     }
     let strengths: Vec<f32> = kept.iter().filter_map(|r| r.strength_db).collect();
     summary.strength = StrengthSummary::of(&strengths);
+    for r in &kept {
+        if let Some(info) = &r.labels_info {
+            summary.labels_dropped.merge(&info.dropped);
+        }
+    }
     if !summary.interrupted {
         // Put the manifest in pair order, so the folder is the same whatever the job count.
         write_manifest(&manifest_path, &mut kept)?;
-        if opts.shard.is_none() && summary.complete {
-            // The strength of the finished folder, kept beside its settings (not compared on
-            // resume).
+        if opts.shard.is_none() && (summary.complete || settings.labels.is_some()) {
+            // The strength of the finished folder and the annotations its labels dropped, kept
+            // beside its settings (not compared on resume).
             let mut finished = settings.clone();
-            finished.strength = summary.strength.clone();
+            if summary.complete {
+                finished.strength = summary.strength.clone();
+            }
+            if settings.labels.is_some() || settings.masks.is_some() {
+                finished.labels_dropped = Some(summary.labels_dropped.clone());
+            }
             finished.write(out)?;
         }
         if opts.shard.is_none() {
@@ -501,302 +571,6 @@ fn remove_stale_temps(
         }
     }
     Ok(())
-}
-
-/// Shared, read-only state of the workers.
-struct Context<'a> {
-    out: &'a Path,
-    /// The method's name, recorded in every pair.
-    method: &'static str,
-    spec: &'a Spec,
-    cleans: &'a [PathBuf],
-    names: &'a [String],
-    refs: &'a [PathBuf],
-    ref_cache: RefCache,
-    /// Turns references into styles (the network's config decides how).
-    renderer: &'a Renderer,
-    depth: &'a PreparedDepth,
-    /// Per clean image, its measured map beside it (`X/depth/` next to `X/rgb/`).
-    beside: &'a [Option<PathBuf>],
-    /// The clean images' labels.
-    labels: &'a Labels,
-    /// Per-pair strength calibration of a water-anchored model.
-    calibration: Option<&'a WaterTarget>,
-    limits: &'a DecodeLimits,
-    stop: &'a AtomicBool,
-}
-
-impl Context<'_> {
-    /// Makes the pairs `ks` of clean image `i`. Returns false when the receiver is gone.
-    fn make_clean(
-        &self,
-        worker: &JobWorker<'_>,
-        i: usize,
-        ks: &[usize],
-        tx: &SyncSender<Msg>,
-    ) -> bool {
-        let source = &self.cleans[i];
-        let ids: Vec<String> = ks
-            .iter()
-            .map(|&k| crate::plan::pair_id(&self.names[i], k))
-            .collect();
-        let fail = |ids: Vec<String>, reason: String| {
-            tx.send(Msg::Failed(Failure {
-                source: source.to_string_lossy().into_owned(),
-                ids,
-                reason,
-            }))
-            .is_ok()
-        };
-        let (clean, depth, labels) =
-            match self.clean_and_depth(i).and_then(|(clean, depth, fit)| {
-                Ok((clean, depth, self.labels.for_clean(i, &fit, self.limits)?))
-            }) {
-                Ok(c) => c,
-                Err(reason) => return fail(ids, reason),
-            };
-        let references = if self.refs.is_empty() {
-            Vec::new()
-        } else {
-            match self.draw(i, tx) {
-                Some(r) => r,
-                None => return false,
-            }
-        };
-        let lf_dir_needed = self.spec.save_lightfield;
-        for (&k, id) in ks.iter().zip(ids) {
-            if self.stop.load(Ordering::Relaxed) {
-                return true;
-            }
-            let index = (i * self.spec.per_image + k) as u64;
-            let seed = pair_seed(self.spec.seed, index);
-            let reference = if self.refs.is_empty() {
-                None
-            } else {
-                match references.get(k) {
-                    Some(r) => Some(r),
-                    None => {
-                        if !fail(
-                            vec![id],
-                            format!(
-                                "only {} readable references left to draw from",
-                                references.len()
-                            ),
-                        ) {
-                            return false;
-                        }
-                        continue;
-                    }
-                }
-            };
-            let pair_labels = labels.pair(&id, index, k, clean.size());
-            let result = self.make_pair(
-                worker,
-                &clean,
-                &depth,
-                reference,
-                seed,
-                &id,
-                lf_dir_needed,
-                &pair_labels,
-            );
-            let msg = match result {
-                Ok((params, reference_source, strength_db)) => Msg::Pair(Box::new(Record {
-                    id: id.clone(),
-                    index,
-                    clean_source: source.to_string_lossy().into_owned(),
-                    reference_source,
-                    method: self.method.into(),
-                    params,
-                    seed,
-                    width: clean.width(),
-                    height: clean.height(),
-                    underwater: format!("{UNDERWATER_DIR}/{id}.png"),
-                    clean: format!("{CLEAN_DIR}/{id}.png"),
-                    depth: self
-                        .spec
-                        .save_depth
-                        .then(|| format!("{DEPTH_DIR}/{id}.png")),
-                    lightfield: self
-                        .spec
-                        .save_lightfield
-                        .then(|| format!("{LIGHTFIELD_DIR}/{id}.png")),
-                    labels: pair_labels.labels.map(|(f, _)| f),
-                    mask: pair_labels.mask.map(|(f, _)| f),
-                    strength_db,
-                })),
-                Err(reason) => Msg::Failed(Failure {
-                    source: source.to_string_lossy().into_owned(),
-                    ids: vec![id],
-                    reason,
-                }),
-            };
-            if tx.send(msg).is_err() {
-                return false;
-            }
-        }
-        true
-    }
-
-    /// Clean image `i` fitted to the pair size, its depth, and the fit (which carries its labels
-    /// too). Maps from files are read at the image's own size and fitted as it is (cover and
-    /// centre-crop), so that they stay aligned; the prior and depth models see the fitted image.
-    fn clean_and_depth(
-        &self,
-        i: usize,
-    ) -> std::result::Result<(Image, uwnr_depth::Depth, Fit), String> {
-        let source = &self.cleans[i];
-        let img = load_rgb(source, self.limits).map_err(|e| e.to_string())?;
-        let geometry = Fit::new(img.size(), self.spec.size);
-        let clean = fit(&img, self.spec.size).map_err(|e| e.to_string())?;
-        let depth = if let Some(map) = &self.beside[i] {
-            uwnr_depth::Depth::from_file(map, img.size(), self.spec.depth_policy.unit, self.limits)
-                .map_err(|e| format!("depth: {e}"))?
-        } else if self.depth.reads_files() {
-            self.depth
-                .depth_for(&img, Some(source))
-                .map_err(|e| format!("depth: {e}"))?
-        } else {
-            return self
-                .depth
-                .depth_for(&clean, Some(source))
-                .map(|d| (clean, d, geometry))
-                .map_err(|e| format!("depth: {e}"));
-        };
-        let map = fit_geometry(&depth.map, self.spec.size).map_err(|e| format!("depth: {e}"))?;
-        Ok((clean, uwnr_depth::Depth { map, ..depth }, geometry))
-    }
-
-    /// The references of clean image `i`, in draw order: the first K readable ones of its
-    /// seeded permutation. `None` when the receiver is gone.
-    fn draw(&self, i: usize, tx: &SyncSender<Msg>) -> Option<Vec<(usize, Arc<ReferenceStyle>)>> {
-        let mut chosen = Vec::with_capacity(self.spec.per_image);
-        for r in ReferenceOrder::new(self.spec.seed, i, self.refs.len()) {
-            if chosen.len() == self.spec.per_image {
-                break;
-            }
-            let mut first_failure = None;
-            let entry = self.ref_cache[r].get_or_init(|| {
-                let path = &self.refs[r];
-                let lf = load_rgb(path, self.limits)
-                    .map_err(|e| e.to_string())
-                    .and_then(|img| {
-                        self.renderer
-                            .reference_style(&img)
-                            .map_err(|e| e.to_string())
-                    });
-                if let Err(reason) = &lf {
-                    first_failure = Some(reason.clone());
-                }
-                lf.map(Arc::new)
-            });
-            match entry {
-                Ok(lf) => chosen.push((r, Arc::clone(lf))),
-                Err(_) => {
-                    // Reported once, by the thread that found it; the draw moves on.
-                    if let Some(reason) = first_failure {
-                        let f = Failure {
-                            source: self.refs[r].to_string_lossy().into_owned(),
-                            ids: Vec::new(),
-                            reason: format!("unreadable reference, skipped: {reason}"),
-                        };
-                        tx.send(Msg::Failed(f)).ok()?;
-                    }
-                }
-            }
-        }
-        Some(chosen)
-    }
-
-    /// Renders one pair and writes its files. Returns the recorded parameters and the
-    /// reference's path.
-    #[allow(clippy::too_many_arguments)]
-    fn make_pair(
-        &self,
-        worker: &JobWorker<'_>,
-        clean: &Image,
-        depth: &uwnr_depth::Depth,
-        reference: Option<&(usize, Arc<ReferenceStyle>)>,
-        seed: u64,
-        id: &str,
-        save_lightfield: bool,
-        labels: &PairLabels,
-    ) -> std::result::Result<(serde_json::Value, Option<String>, Option<f32>), String> {
-        let decoded;
-        // A calibrated water: the reference's style with the pair's own water in it.
-        let mut calibrated = None;
-        if let (Some(target), Some((_, style))) = (self.calibration, reference) {
-            let mut style = ReferenceStyle::clone(style);
-            if let Some(water) = style.water.as_mut() {
-                let (affine, record) = target
-                    .water_for(water.affine, clean, seed)
-                    .map_err(|e| e.to_string())?;
-                uwnr_model::style::set_affine(water, affine);
-                calibrated = Some((style, record));
-            }
-        }
-        let (input, reference_source) = match reference {
-            Some((r, lf)) => {
-                let lf = calibrated.as_ref().map_or(&**lf, |(s, _)| s);
-                let path = &self.refs[*r];
-                let image = if self.renderer.wants_reference_image() {
-                    decoded = load_rgb(path, self.limits)
-                        .map_err(|e| format!("reading reference {}: {e}", path.display()))?;
-                    Some(&decoded)
-                } else {
-                    None
-                };
-                (
-                    Some(ReferenceInput {
-                        image,
-                        style: Some(lf),
-                    }),
-                    Some(path.to_string_lossy().into_owned()),
-                )
-            }
-            None => (None, None),
-        };
-        let lf = reference.map(|(_, style)| &style.light_field);
-        let Rendered {
-            image: underwater,
-            mut params,
-        } = worker
-            .render(clean, depth, input, seed)
-            .map_err(|e| e.to_string())?;
-        let name = format!("{id}.png");
-        let write = |dir: &str, f: &dyn Fn(&Path) -> uwnr_core::Result<()>| {
-            let p = self.out.join(dir).join(&name);
-            f(&p).map_err(|e| format!("writing {}: {e}", p.display()))
-        };
-        // The underwater image last: a pair is only recorded once all of it is on disk anyway,
-        // but a half-made pair then never has a render without its clean image.
-        write(CLEAN_DIR, &|p| save_rgb(p, clean))?;
-        if self.spec.save_depth {
-            write(DEPTH_DIR, &|p| save_gray16(p, &depth.map))?;
-        }
-        if save_lightfield {
-            let Some(lf) = lf else {
-                return Err("--save-lightfield needs a reference for every pair".into());
-            };
-            let at_size =
-                resize_bilinear(lf, clean.width(), clean.height()).map_err(|e| e.to_string())?;
-            write(LIGHTFIELD_DIR, &|p| save_rgb(p, &at_size))?;
-        }
-        for (file, bytes) in [&labels.labels, &labels.mask].into_iter().flatten() {
-            let p = self.out.join(file);
-            uwnr_core::io::write_atomic_bytes(&p, bytes)
-                .map_err(|e| format!("writing {}: {e}", p.display()))?;
-        }
-        write(UNDERWATER_DIR, &|p| save_rgb(p, &underwater))?;
-        if let Some((_, record)) = calibrated {
-            params["strength"] = record;
-        }
-        // The pair as stored: both sides 8-bit.
-        let strength_db = uwnr_model::water::pair_psnr(&underwater.quantised(), clean)
-            .ok()
-            .filter(|v| v.is_finite());
-        Ok((params, reference_source, strength_db))
-    }
 }
 
 /// The clean image as the pair holds it: fitted to the pair size (cover and centre-crop for a

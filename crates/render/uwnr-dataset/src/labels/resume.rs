@@ -1,0 +1,54 @@
+//! What a pair's manifest line records of its labels: the annotations dropped under the
+//! [`super::rules`] and the fingerprints of the label files written, so that `verify` notices a
+//! label file edited after the pair was made.
+
+use serde::{Deserialize, Serialize};
+
+use super::rules::DropCounts;
+
+/// The `labels_info` of a manifest line.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct LabelsInfo {
+    /// Annotations dropped, by reason.
+    #[serde(default, skip_serializing_if = "DropCounts::is_empty")]
+    pub dropped: DropCounts,
+    /// Fingerprint of `labels/NAME_k.json|txt` as written.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub labels_fingerprint: Option<String>,
+    /// Fingerprint of `masks/NAME_k.png` as written.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mask_fingerprint: Option<String>,
+}
+
+/// Compares the per-image label fingerprints (`labels.images`, `masks.images`) that `existing`
+/// settings record with those of `requested`: returns `existing` with the requested
+/// fingerprints (so that the rest is compared as usual) and the clean images whose labels
+/// differ. Fixing a label file changes only its image, whose pairs the caller then makes if none
+/// is made yet, and refuses otherwise.
+#[must_use]
+pub fn split_image_fingerprints(
+    existing: &crate::manifest::Settings,
+    requested: &crate::manifest::Settings,
+) -> (crate::manifest::Settings, Vec<usize>) {
+    let mut adjusted = existing.clone();
+    let mut changed = Vec::new();
+    for (ours, theirs) in [
+        (&mut adjusted.labels, &requested.labels),
+        (&mut adjusted.masks, &requested.masks),
+    ] {
+        let (Some(ours), Some(theirs)) = (ours.as_mut(), theirs.as_ref()) else {
+            continue;
+        };
+        let (Some(a), Some(b)) = (ours["images"].as_array(), theirs["images"].as_array()) else {
+            continue;
+        };
+        if a.len() != b.len() {
+            continue;
+        }
+        changed.extend((0..a.len()).filter(|&i| a[i] != b[i]));
+        ours["images"] = theirs["images"].clone();
+    }
+    changed.sort_unstable();
+    changed.dedup();
+    (adjusted, changed)
+}
