@@ -185,8 +185,6 @@ pub fn stays_inside(rel: &Path) -> bool {
     normal
 }
 
-/// Writes a file atomically and durably, the one rule every file uwnr writes follows:
-
 fn read_file(path: &Path) -> Result<Vec<u8>> {
     fs::read(path).map_err(|source| CoreError::Io {
         path: path.to_path_buf(),

@@ -124,6 +124,7 @@ pub fn to_rgb8(img: &Image) -> Vec<u8> {
     out
 }
 
+/// Writes a file atomically and durably, the one rule every file uwnr writes follows:
 ///
 /// 1. a temporary file `.NAME.PID-N.tmp` is created in `path`'s directory (a rename is only
 ///    atomic within one file system; the name is what `uwnr-dataset` recognises as a leftover);
