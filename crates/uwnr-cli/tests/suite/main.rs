@@ -11,5 +11,6 @@ mod gan;
 mod golden;
 mod haze;
 mod labels;
+mod methods;
 mod serve;
 mod strength;

@@ -1,0 +1,117 @@
+use super::*;
+
+fn tiny_network(backend: &Backend) -> uwnr_model::Network {
+    let config = GeneratorConfig::with_base_width(8);
+    let tensors = uwnr_model::weights::keys::seeded_tensors(&config, 1);
+    uwnr_model::Network::from_tensors(&config, tensors, backend)
+        .unwrap()
+        .0
+}
+
+#[test]
+fn bf16_products_are_recorded_and_f32_settings_keep_their_old_form() {
+    let params = |backend: &Backend| {
+        Renderer::network(
+            tiny_network(backend),
+            RenderOptions::default(),
+            "w".into(),
+            b"x",
+        )
+        .settings_params()
+        .unwrap()
+    };
+    let f32 = params(&Backend::Engine);
+    let bf16 = params(&Backend::EngineBf16);
+    assert!(f32.get("precision").is_none(), "{f32}");
+    assert_eq!(bf16["precision"], "bf16");
+    assert_ne!(f32, bf16, "a resume with the other precision is refused");
+    let mut without = bf16.clone();
+    without.as_object_mut().unwrap().remove("precision");
+    assert_eq!(without, f32, "nothing else differs");
+}
+
+#[test]
+fn baselines_record_their_method_json_and_haze_its_spec() {
+    let r = Renderer::load(MethodSpec::defaults(MethodKind::Reinhard, true)).unwrap();
+    assert_eq!(
+        r.settings_params().unwrap(),
+        serde_json::to_value(r.spec().baseline().unwrap()).unwrap()
+    );
+    assert_eq!(r.reference_use(), ReferenceUse::Required);
+    let h = Renderer::load(MethodSpec::defaults(MethodKind::Haze, false)).unwrap();
+    assert_eq!(h.settings_params().unwrap()["method"], "haze");
+    assert_eq!(h.reference_use(), ReferenceUse::Ignored);
+}
+
+#[test]
+fn an_optional_reference_is_used_when_given_and_sampled_without() {
+    let r = Renderer::load_keywords(MethodKind::Seathru, &Map::new()).unwrap();
+    assert_eq!(r.reference_use(), ReferenceUse::Optional);
+    let clean = Image::filled(16, 12, 3, 0.5);
+    let depth = Image::filled(16, 12, 1, 0.5);
+    let response = DepthResponse::default();
+    let worker = r.worker().unwrap();
+    let without = worker.render(&clean, &depth, &response, None, 3).unwrap();
+    assert_eq!(without.params["coefficients"]["mode"], "sampled");
+    let given: Map<String, Value> =
+        serde_json::from_str(r#"{"coefficients":{"mode":"sampled"}}"#).unwrap();
+    let sampled = Renderer::load_keywords(MethodKind::Seathru, &given).unwrap();
+    assert_eq!(sampled.reference_use(), ReferenceUse::Ignored);
+    let needs = Renderer::load(MethodSpec::defaults(MethodKind::Uisa, true)).unwrap();
+    let e = needs
+        .worker()
+        .unwrap()
+        .render(&clean, &depth, &response, None, 3)
+        .err()
+        .unwrap();
+    assert!(
+        matches!(e, RenderError::NeedsReference { method: "uisa" }),
+        "{e}"
+    );
+}
+
+#[test]
+fn the_network_reads_the_style_the_baselines_the_image() {
+    let net = Renderer::network(
+        tiny_network(&Backend::Engine),
+        RenderOptions::default(),
+        "w".into(),
+        b"",
+    );
+    let reference = Arc::new(Image::filled(40, 30, 3, 0.3));
+    let prepared = net.prepare_reference(Arc::clone(&reference)).unwrap();
+    assert!(prepared.style.is_some() && prepared.image.is_none());
+    let clean = Image::filled(32, 32, 3, 0.5);
+    let depth = Image::filled(32, 32, 1, 0.5);
+    let out = net
+        .worker()
+        .unwrap()
+        .render(
+            &clean,
+            &depth,
+            &DepthResponse::default(),
+            Some(prepared.input()),
+            0,
+        )
+        .unwrap();
+    assert_eq!(out.image.size(), (32, 32));
+    assert_eq!(out.params["weights"], "w");
+    let reinhard = Renderer::load(MethodSpec::defaults(MethodKind::Reinhard, true)).unwrap();
+    let prepared = reinhard.prepare_reference(Arc::clone(&reference)).unwrap();
+    assert!(prepared.style.is_none());
+    // The baselines share the decoded reference rather than copy it.
+    assert!(Arc::ptr_eq(prepared.image.as_ref().unwrap(), &reference));
+}
+
+#[test]
+fn missing_weights_are_one_clear_error() {
+    let spec = MethodSpec::Uwnr(UwnrSpec {
+        weights: Some("no/such/weights.safetensors".into()),
+        ..UwnrSpec::default()
+    });
+    let e = Renderer::load(spec).err().unwrap().to_string();
+    assert!(
+        e.starts_with("loading weights no/such/weights.safetensors"),
+        "{e}"
+    );
+}

@@ -1,0 +1,47 @@
+use super::*;
+
+#[test]
+fn every_row_gets_the_same_number_of_steps() {
+    let spec = |budget| DownstreamSpec {
+        clean: vec![],
+        references: vec![],
+        tests: vec![],
+        real: vec![],
+        out: PathBuf::new(),
+        per_image: 4,
+        size: Size::Native,
+        seed: 3,
+        depth: DepthSource::default(),
+        depth_policy: uwnr_dataset::DepthPolicy::default(),
+        train: EnhanceTrainConfig::default(),
+        budget,
+        eval_max_side: None,
+        examples: 0,
+        jobs: 1,
+        device: Device::default(),
+        vgg19: None,
+        limits: DecodeLimits::default(),
+    };
+    let s = spec(6000);
+    for (pairs, epochs) in [(1172, 6), (2415, 3), (4, 1500)] {
+        let cfg = row_config(&s, pairs);
+        assert_eq!(cfg.total_steps, Some(1500), "{pairs} pairs");
+        assert_eq!(cfg.epochs, epochs, "{pairs} pairs");
+        assert!(cfg.epochs * (pairs / 4) >= 1500);
+        assert_eq!(cfg.run.seed, 3);
+    }
+    assert_eq!(row_config(&s, 1172).lr_step_epochs, 2);
+    assert_eq!(row_config(&spec(1), 10).total_steps, Some(1));
+}
+
+#[test]
+fn short_names_are_unique() {
+    let dirs: Vec<PathBuf> = ["a/lsui", "b/lsui", "c/uieb-val", "d/lsui"]
+        .iter()
+        .map(PathBuf::from)
+        .collect();
+    assert_eq!(
+        short_names(&dirs),
+        vec!["lsui", "lsui-2", "uieb-val", "lsui-3"]
+    );
+}
