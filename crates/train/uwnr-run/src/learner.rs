@@ -8,17 +8,14 @@
 //! the session ends (never twice for the same step); a stop request (Ctrl-C) ends the session at
 //! the next step boundary with a checkpoint; a resumed run continues exactly where it stopped.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use burn::module::{Module, ModuleVisitor, Param};
 use burn::optim::ModuleOptimizer;
-use burn::store::ModuleSnapshot;
 use burn::tensor::{Device, Tensor};
-use uwnr_core::Image;
-use uwnr_core::io::DecodeLimits;
 
 use crate::checkpoint::{
     BEST, CHECKPOINTS_DIR, LAST, RunState, find_checkpoint, load_checkpoint, save_checkpoint,
@@ -29,10 +26,7 @@ use crate::folder::{
     CURVES_FILE, DATA_REPORT_FILE, METRICS_FILE, VAL_DIR, VAL_FILE, claim_run_folder, write_text,
 };
 use crate::loader::{BatchSource, Loader};
-use crate::plot::{
-    LossSeries, SheetLine, TOTAL_COLOUR, contact_sheet, draw_loss_curves, series_colour,
-};
-use crate::settings::RunSettings;
+use crate::plot::{LossSeries, TOTAL_COLOUR, contact_sheet, draw_loss_curves, series_colour};
 
 /// Height of a contact-sheet thumbnail.
 const SHEET_THUMB: usize = 192;

@@ -34,7 +34,7 @@ impl Level {
     }
 
     /// `o <- o * sigmoid(expand(LeakyReLU(reduce(o))))`, per pixel.
-    fn spatial_attention(&self, o: &mut Feature, pool: &mut Pool) {
+    pub(super) fn spatial_attention(&self, o: &mut Feature, pool: &mut Pool) {
         let (ho, wo) = (o.h, o.w);
         let r = self.c / ATTENTION_REDUCTION;
         let mut hidden = Feature::output_in(pool, ho, wo, r, 0);

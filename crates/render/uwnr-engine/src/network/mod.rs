@@ -11,11 +11,8 @@
 //! pass that scatters the sub-pixels and adds the skip. The output conv has tanh in its
 //! epilogue.
 
-use rayon::prelude::*;
-
 use crate::conv::Conv;
 use crate::error::{EngineError, Result};
-use crate::kernels::act::{LEAKY_RELU_SLOPE, sigmoid};
 use crate::kernels::{Act, Dot, Isa, Precision};
 use crate::narrow::Narrow;
 use crate::tensor::{Feature, PassKind, Planar, Pool};

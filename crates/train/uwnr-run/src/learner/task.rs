@@ -10,8 +10,10 @@ use burn::tensor::Device;
 use uwnr_core::Image;
 use uwnr_core::io::DecodeLimits;
 
+use crate::checkpoint::RunState;
 use crate::error::RunError;
 use crate::loader::BatchSource;
+use crate::plot::SheetLine;
 use crate::settings::RunSettings;
 
 /// A network's part of training: what the loop cannot know.
