@@ -1,4 +1,3 @@
-
 use super::*;
 use crate::reference::{self, test_values as values};
 use crate::tensor::Planar;
