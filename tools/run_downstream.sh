@@ -25,6 +25,9 @@ METHODS=${METHODS-}
 # SEED=1 and SEED=2, each in its own OUT).
 SEED=${SEED:-0}
 REAL=${REAL-$DATA/paired/euvp-dark}
+# TARGET calibrates the bundled model's set to a water (`uwnr dataset --target`): e.g.
+# TARGET=$DATA/paired/uieb-train or TARGET=../uwnr-splits/lsui-train; the baselines' sets ignore it.
+TARGET=${TARGET-}
 SPLITS=${SPLITS:-../uwnr-splits}
 [ -d "$SPLITS/lsui-test" ] || bash tools/lsui_split.sh "$SPLITS" >/dev/null
 export LIBTORCH_USE_PYTORCH=1
@@ -37,6 +40,6 @@ exec "$BIN" experiment downstream \
   --clean "$DATA/inair" "$DATA"/rgbd/*/rgb \
   --references "$DATA/references" \
   --test "$DATA/paired/uieb-val" "$DATA/paired/lsui" "$SPLITS/lsui-test" \
-  ${REAL:+--real "$REAL"} \
+  ${REAL:+--real "$REAL"} ${TARGET:+--target "$TARGET"} \
   ${METHODS:+--methods "$METHODS"} --per-image 4 --size 256x256 \
   --budget 6000 --seed "$SEED" --device "$DEVICE" --out "$OUT"

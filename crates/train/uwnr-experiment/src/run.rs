@@ -82,6 +82,9 @@ pub struct DownstreamSpec {
     pub vgg19: Option<PathBuf>,
     /// Image decoding limits.
     pub limits: DecodeLimits,
+    /// The strengths a water-anchored model's pairs are calibrated to (`uwnr dataset
+    /// --target`); the other methods' sets are made without it.
+    pub target: Option<uwnr_dataset::WaterTarget>,
 }
 
 /// Progress, reported on the calling thread.
@@ -504,9 +507,17 @@ pub fn run_downstream(
         if let Some(renderer) = renderer {
             observer(Event::Stage(&format!("rendering the {name} training set")));
             let start = Instant::now();
+            let set_spec = Spec {
+                target: if uwnr_dataset::calibrates(renderer) {
+                    spec.target.clone()
+                } else {
+                    None
+                },
+                ..dataset_spec.clone()
+            };
             let summary = uwnr_dataset::generate(
                 data,
-                &dataset_spec,
+                &set_spec,
                 renderer,
                 &RunOptions {
                     shard: None,

@@ -108,6 +108,11 @@ pub struct DownstreamArgs {
     /// Rendering threads (default: the number of CPU cores).
     #[arg(long, short = 'j', value_name = "J")]
     pub jobs: Option<usize>,
+    /// Calibrate the strength of the water-anchored model's pairs to this water (as `uwnr
+    /// dataset --target`: a folder of real pairs or of underwater photos); the other methods'
+    /// sets are made as without it. Default: the bundled model's real pairs.
+    #[arg(long, value_name = "DIR")]
+    pub target: Option<PathBuf>,
     #[command(flatten)]
     pub baseline: BaselineOpts,
     #[command(flatten)]

@@ -97,6 +97,11 @@ fn downstream(a: &DownstreamArgs) -> Result<ExitCode> {
         device: super::device(a.model.device)?,
         vgg19: a.vgg19.clone(),
         limits: DecodeLimits::default(),
+        target: a
+            .target
+            .as_deref()
+            .map(|dir| uwnr_dataset::WaterTarget::load(dir, &DecodeLimits::default()))
+            .transpose()?,
     };
 
     let stop = super::stop_on_ctrl_c(

@@ -199,3 +199,61 @@ fn tiny_downstream_run_writes_a_well_formed_table() {
     assert!(!o.status.success());
     assert!(stderr(&o).contains("budget"), "{}", stderr(&o));
 }
+
+#[test]
+fn a_target_calibrates_the_water_anchored_set_only() {
+    let dir = tempfile::tempdir().unwrap();
+    let clean = dir.path().join("clean");
+    std::fs::create_dir_all(&clean).unwrap();
+    for k in 0..2 {
+        save_rgb(&clean.join(format!("c{k}.png")), &image(48, 40, 10 + k)).unwrap();
+    }
+    let target = paired(&dir.path().join("target"), 2, 50);
+    let test = paired(&dir.path().join("test"), 2, 30);
+    let config = dir.path().join("enhance.json");
+    std::fs::write(
+        &config,
+        r#"{"model":{"width":8,"blocks":1,"dropout":0.0},"batch_size":2,"crop":32}"#,
+    )
+    .unwrap();
+    let out = dir.path().join("out");
+    let (r1, r2) = (sample("ref-blue.jpg"), sample("ref-green.png"));
+    // The bundled model (a water anchor) and a baseline.
+    let o = uwnr(&[
+        "experiment",
+        "downstream",
+        "--clean",
+        s(&clean),
+        "--references",
+        s(&r1),
+        s(&r2),
+        "--test",
+        s(&test),
+        "--out",
+        s(&out),
+        "--methods",
+        "uwnr,reinhard",
+        "--per-image",
+        "2",
+        "--size",
+        "32x32",
+        "--budget",
+        "4",
+        "--enhance-config",
+        s(&config),
+        "--target",
+        s(&target),
+        "--jobs",
+        "2",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let settings = |m: &str| -> serde_json::Value {
+        let text = std::fs::read_to_string(out.join("data").join(m).join("dataset.json")).unwrap();
+        serde_json::from_str::<serde_json::Value>(&text).unwrap()
+    };
+    let uwnr_set = settings("uwnr");
+    assert_eq!(uwnr_set["target"]["kind"], "pairs", "{uwnr_set}");
+    assert_eq!(uwnr_set["target"]["pairs"], 2, "{uwnr_set}");
+    let reinhard_set = settings("reinhard");
+    assert!(reinhard_set["target"].is_null(), "{reinhard_set}");
+}

@@ -75,6 +75,15 @@ pub struct Spec {
     pub target: Option<WaterTarget>,
 }
 
+/// Whether `renderer`'s pairs are calibrated to a target ([`Spec::target`]): a model whose
+/// anchor is a water has its strength calibrated; any other method cannot be.
+#[must_use]
+pub fn calibrates(renderer: &Renderer) -> bool {
+    renderer
+        .generator_config()
+        .is_some_and(|c| c.anchor == uwnr_model::AnchorKind::Water)
+}
+
 /// How to run it.
 #[derive(Clone, Debug)]
 pub struct RunOptions {
@@ -244,11 +253,7 @@ fn generate_in(
         )));
     }
 
-    // A model whose anchor is a water has its strength calibrated; any other method cannot be.
-    let water_anchor = renderer
-        .generator_config()
-        .is_some_and(|c| c.anchor == uwnr_model::AnchorKind::Water);
-    let calibration = match (&spec.target, water_anchor) {
+    let calibration = match (&spec.target, calibrates(renderer)) {
         (Some(t), true) => Some(t.clone()),
         (None, true) => Some(WaterTarget::bundled()?),
         (Some(_), false) => {

@@ -21,6 +21,7 @@ fn every_row_gets_the_same_number_of_steps() {
         device: Device::default(),
         vgg19: None,
         limits: DecodeLimits::default(),
+        target: None,
     };
     let s = spec(6000);
     for (pairs, epochs) in [(1172, 6), (2415, 3), (4, 1500)] {
