@@ -252,6 +252,10 @@ fn coco_and_masks_follow_the_crop_with_new_ids() {
         std::fs::read(merged.join("coco.json")).unwrap(),
         std::fs::read(out.join("coco.json")).unwrap()
     );
+    // The annotations dropped, counted over the merged pairs as over the unsharded run's.
+    let dropped = |dir: &Path| json_file(&dir.join("dataset.json"))["labels_dropped"].clone();
+    assert!(dropped(&out).is_object(), "{}", dropped(&out));
+    assert_eq!(dropped(&merged), dropped(&out));
     let o = uwnr(&["dataset", "verify", s(&merged)]);
     assert!(o.status.success(), "{}", stderr(&o));
 }
