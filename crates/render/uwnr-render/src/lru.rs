@@ -1,17 +1,19 @@
 //! A small map that keeps the most recently used entries within a count and, when asked, a
-//! number of bytes: the page's caches and a render job's prepared references.
+//! number of bytes: the page's caches and a render job's prepared references. The order of use
+//! is the `lru` crate's; the sizes and the byte bound are counted here.
 
-use std::collections::VecDeque;
+use std::hash::Hash;
 
 /// A small map that forgets its least recently used entries beyond a count or a byte total.
-pub struct Lru<K, V> {
+pub struct Lru<K: Hash + Eq, V> {
     cap: usize,
     max_bytes: u64,
     bytes: u64,
-    items: VecDeque<(K, V, u64)>,
+    /// Each value with its size in bytes.
+    items: lru::LruCache<K, (V, u64)>,
 }
 
-impl<K: PartialEq, V: Clone> Lru<K, V> {
+impl<K: Hash + Eq, V: Clone> Lru<K, V> {
     /// A map of at most `cap` entries.
     #[must_use]
     pub fn new(cap: usize) -> Self {
@@ -26,17 +28,13 @@ impl<K: PartialEq, V: Clone> Lru<K, V> {
             cap,
             max_bytes,
             bytes: 0,
-            items: VecDeque::new(),
+            items: lru::LruCache::unbounded(),
         }
     }
 
     /// The value of `k`, now the most recently used.
     pub fn get(&mut self, k: &K) -> Option<V> {
-        let i = self.items.iter().position(|(x, _, _)| x == k)?;
-        let item = self.items.remove(i)?;
-        let v = item.1.clone();
-        self.items.push_back(item);
-        Some(v)
+        self.items.get(k).map(|(v, _)| v.clone())
     }
 
     /// Sets `k` to `v` (size 0), the most recently used; the least recently used beyond the
@@ -52,23 +50,23 @@ impl<K: PartialEq, V: Clone> Lru<K, V> {
         if bytes > self.max_bytes {
             return;
         }
-        self.items.push_back((k, v, bytes));
+        self.items.push(k, (v, bytes));
         self.bytes += bytes;
         self.shrink();
     }
 
-    /// Sets the size of `k` (now known); entries beyond the bounds go, `k` itself when it alone
-    /// exceeds the byte bound.
+    /// Sets the size of `k` (now known), without making it more recently used; entries beyond
+    /// the bounds go, `k` itself when it alone exceeds the byte bound.
     pub fn set_size(&mut self, k: &K, bytes: u64) {
-        let Some(i) = self.items.iter().position(|(x, _, _)| x == k) else {
-            return;
-        };
         if bytes > self.max_bytes {
             self.remove(k);
             return;
         }
-        self.bytes = self.bytes - self.items[i].2 + bytes;
-        self.items[i].2 = bytes;
+        let Some((_, size)) = self.items.peek_mut(k) else {
+            return;
+        };
+        let old = std::mem::replace(size, bytes);
+        self.bytes = self.bytes - old + bytes;
         self.shrink();
     }
 
@@ -91,17 +89,15 @@ impl<K: PartialEq, V: Clone> Lru<K, V> {
     }
 
     fn remove(&mut self, k: &K) {
-        if let Some(i) = self.items.iter().position(|(x, _, _)| x == k)
-            && let Some((_, _, b)) = self.items.remove(i)
-        {
+        if let Some((_, b)) = self.items.pop(k) {
             self.bytes -= b;
         }
     }
 
     fn shrink(&mut self) {
         while self.items.len() > self.cap || self.bytes > self.max_bytes {
-            match self.items.pop_front() {
-                Some((_, _, b)) => self.bytes -= b,
+            match self.items.pop_lru() {
+                Some((_, (_, b))) => self.bytes -= b,
                 None => break,
             }
         }
