@@ -29,8 +29,19 @@ pub struct MergeReport {
     pub failed: usize,
 }
 
-/// Merges the shards found in `out` and in `sources` into `out`.
+/// Merges the shards found in `out` and in `sources` into `out`. A refused merge leaves no empty
+/// `out` behind when it made it.
 pub fn merge(out: &Path, sources: &[PathBuf], gallery: bool) -> Result<MergeReport> {
+    let existed = out.exists();
+    let merged = merge_into(out, sources, gallery);
+    if merged.is_err() && !existed {
+        // Only an empty folder is removed: nothing merge wrote is lost.
+        let _ = std::fs::remove_dir(out);
+    }
+    merged
+}
+
+fn merge_into(out: &Path, sources: &[PathBuf], gallery: bool) -> Result<MergeReport> {
     std::fs::create_dir_all(out).map_err(io_err(out))?;
     let mut settings = match Settings::read(out) {
         Ok(s) => Some(s),

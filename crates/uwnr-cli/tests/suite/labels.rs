@@ -252,6 +252,18 @@ fn coco_and_masks_follow_the_crop_with_new_ids() {
         std::fs::read(merged.join("coco.json")).unwrap(),
         std::fs::read(out.join("coco.json")).unwrap()
     );
+    // Shards made from other label files are refused, naming the image's fingerprint, and the
+    // refused merge leaves no folder behind.
+    let edited = tmp.path().join("s1-edited");
+    std::fs::create_dir_all(&edited).unwrap();
+    let mut settings = json_file(&s1.join("dataset.json"));
+    settings["labels"]["images"][0] = Value::from("fnv1a64:0000000000000000");
+    std::fs::write(edited.join("dataset.json"), settings.to_string()).unwrap();
+    let refused = tmp.path().join("refused");
+    let o = uwnr(&["dataset", "merge", s(&refused), s(&s0), s(&edited)]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("labels.images[0]"), "{}", stderr(&o));
+    assert!(!refused.exists());
     // The annotations dropped, counted over the merged pairs as over the unsharded run's.
     let dropped = |dir: &Path| json_file(&dir.join("dataset.json"))["labels_dropped"].clone();
     assert!(dropped(&out).is_object(), "{}", dropped(&out));
