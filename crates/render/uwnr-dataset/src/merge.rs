@@ -237,21 +237,8 @@ fn merge_into(out: &Path, sources: &[PathBuf], gallery: bool) -> Result<MergeRep
     // The finished folder's strength and the annotations its labels dropped, as an unsharded
     // run records them.
     let complete = records.len() == planned.len();
-    let labelled = settings.labels.is_some() || settings.masks.is_some();
-    if complete || labelled {
-        let mut finished = settings.clone();
-        if complete {
-            let strengths: Vec<f32> = records.iter().filter_map(|r| r.strength_db).collect();
-            finished.strength = crate::target::StrengthSummary::of(&strengths);
-        }
-        if labelled {
-            let mut dropped = crate::labels::DropCounts::default();
-            for info in records.iter().filter_map(|r| r.labels_info.as_ref()) {
-                dropped.merge(&info.dropped);
-            }
-            finished.labels_dropped = Some(dropped);
-        }
-        finished.write(out)?;
+    if complete || settings.labels.is_some() || settings.masks.is_some() {
+        settings.finished(&records, complete).write(out)?;
     }
     failures.sort_by(|a, b| a.source.cmp(&b.source));
     failures.dedup();

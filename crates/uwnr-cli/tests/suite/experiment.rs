@@ -54,23 +54,35 @@ fn paired(root: &Path, n: usize, offset: usize) -> PathBuf {
     root.to_path_buf()
 }
 
-#[test]
-fn tiny_downstream_run_writes_a_well_formed_table() {
-    let dir = tempfile::tempdir().unwrap();
-    let clean = dir.path().join("clean");
+/// `n` clean images of 48x40 in `root/clean`.
+fn clean_images(root: &Path, n: usize) -> PathBuf {
+    let clean = root.join("clean");
     std::fs::create_dir_all(&clean).unwrap();
-    for k in 0..3 {
+    for k in 0..n {
         save_rgb(&clean.join(format!("c{k}.png")), &image(48, 40, 10 + k)).unwrap();
     }
-    let real = paired(&dir.path().join("real-pairs"), 4, 20);
-    let test_a = paired(&dir.path().join("test-a"), 2, 30);
-    let test_b = paired(&dir.path().join("test-b"), 3, 40);
-    let config = dir.path().join("enhance.json");
+    clean
+}
+
+/// A tiny enhancer config (width 8, one block, crops of 32) in `root/enhance.json`.
+fn tiny_enhancer(root: &Path) -> PathBuf {
+    let config = root.join("enhance.json");
     std::fs::write(
         &config,
         r#"{"model":{"width":8,"blocks":1,"dropout":0.0},"batch_size":2,"crop":32}"#,
     )
     .unwrap();
+    config
+}
+
+#[test]
+fn tiny_downstream_run_writes_a_well_formed_table() {
+    let dir = tempfile::tempdir().unwrap();
+    let clean = clean_images(dir.path(), 3);
+    let real = paired(&dir.path().join("real-pairs"), 4, 20);
+    let test_a = paired(&dir.path().join("test-a"), 2, 30);
+    let test_b = paired(&dir.path().join("test-b"), 3, 40);
+    let config = tiny_enhancer(dir.path());
     let out = dir.path().join("out");
     let (r1, r2) = (sample("ref-blue.jpg"), sample("ref-green.png"));
     let w = weights();
@@ -203,19 +215,10 @@ fn tiny_downstream_run_writes_a_well_formed_table() {
 #[test]
 fn a_target_calibrates_the_water_anchored_set_only() {
     let dir = tempfile::tempdir().unwrap();
-    let clean = dir.path().join("clean");
-    std::fs::create_dir_all(&clean).unwrap();
-    for k in 0..2 {
-        save_rgb(&clean.join(format!("c{k}.png")), &image(48, 40, 10 + k)).unwrap();
-    }
+    let clean = clean_images(dir.path(), 2);
     let target = paired(&dir.path().join("target"), 2, 50);
     let test = paired(&dir.path().join("test"), 2, 30);
-    let config = dir.path().join("enhance.json");
-    std::fs::write(
-        &config,
-        r#"{"model":{"width":8,"blocks":1,"dropout":0.0},"batch_size":2,"crop":32}"#,
-    )
-    .unwrap();
+    let config = tiny_enhancer(dir.path());
     let out = dir.path().join("out");
     let (r1, r2) = (sample("ref-blue.jpg"), sample("ref-green.png"));
     // The bundled model (a water anchor) and a baseline.

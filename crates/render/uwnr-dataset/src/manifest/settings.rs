@@ -118,6 +118,26 @@ impl Settings {
         Ok(s)
     }
 
+    /// These settings with what a folder's `records` measured, as `dataset.json` keeps it beside
+    /// them (not compared on resume): their strength when the folder is `complete`, and the
+    /// annotations their labels dropped when the run has labels or masks.
+    #[must_use]
+    pub fn finished(&self, records: &[super::Record], complete: bool) -> Self {
+        let mut finished = self.clone();
+        if complete {
+            let strengths: Vec<f32> = records.iter().filter_map(|r| r.strength_db).collect();
+            finished.strength = crate::target::StrengthSummary::of(&strengths);
+        }
+        if self.labels.is_some() || self.masks.is_some() {
+            let mut dropped = crate::labels::DropCounts::default();
+            for info in records.iter().filter_map(|r| r.labels_info.as_ref()) {
+                dropped.merge(&info.dropped);
+            }
+            finished.labels_dropped = Some(dropped);
+        }
+        finished
+    }
+
     /// Writes `dir/dataset.json` atomically.
     pub fn write(&self, dir: &Path) -> Result<()> {
         let path = dir.join(SETTINGS_FILE);

@@ -518,27 +518,20 @@ fn generate_in(
     if !summary.interrupted {
         write_failures(&out.join(failed_name(opts.shard)), &summary.failures)?;
     }
-    let strengths: Vec<f32> = kept.iter().filter_map(|r| r.strength_db).collect();
-    summary.strength = StrengthSummary::of(&strengths);
-    for r in &kept {
-        if let Some(info) = &r.labels_info {
-            summary.labels_dropped.merge(&info.dropped);
-        }
-    }
+    // What the pairs measured: their strength and the annotations their labels dropped.
+    let mut measured = settings.finished(&kept, true);
+    summary.strength.clone_from(&measured.strength);
+    summary.labels_dropped = measured.labels_dropped.clone().unwrap_or_default();
     if !summary.interrupted {
         // Put the manifest in pair order, so the folder is the same whatever the job count.
         write_manifest(&manifest_path, &mut kept)?;
         if opts.shard.is_none() && (summary.complete || settings.labels.is_some()) {
             // The strength of the finished folder and the annotations its labels dropped, kept
             // beside its settings (not compared on resume).
-            let mut finished = settings.clone();
-            if summary.complete {
-                finished.strength = summary.strength.clone();
+            if !summary.complete {
+                measured.strength = None;
             }
-            if settings.labels.is_some() || settings.masks.is_some() {
-                finished.labels_dropped = Some(summary.labels_dropped.clone());
-            }
-            finished.write(out)?;
+            measured.write(out)?;
         }
         if opts.shard.is_none() {
             crate::labels::write_coco(out, settings.labels.as_ref(), &kept)?;
