@@ -75,6 +75,7 @@ fn strength_is_reported_per_pair_and_for_the_folder() {
     let manifest = std::fs::read_to_string(out.join("manifest.jsonl")).unwrap();
     let limits = uwnr_core::io::DecodeLimits::default();
     let mut sum = 0.0;
+    let mut on_target = 0;
     for line in manifest.lines() {
         let r: serde_json::Value = serde_json::from_str(line).unwrap();
         let u =
@@ -93,8 +94,31 @@ fn strength_is_reported_per_pair_and_for_the_folder() {
         // Every pair was calibrated and says to what.
         assert!(r["params"]["strength"]["target_db"].is_number(), "{r}");
         assert!(r["params"]["water"]["gain"].is_array(), "{r}");
+        // The render itself, depth and detail included, sits at its target unless the scale
+        // ran out (held at a bound, or the renders allowed were used up).
+        let st = &r["params"]["strength"];
+        let (target, scale) = (
+            st["target_db"].as_f64().unwrap(),
+            st["scale"].as_f64().unwrap(),
+        );
+        let renders = st["renders"].as_u64().unwrap();
+        assert!((1..=3).contains(&renders), "{r}");
+        if (db - target).abs() <= 0.251 {
+            on_target += 1;
+        } else {
+            assert!(
+                renders == 3 || !(1e-4..=1.4999).contains(&scale),
+                "{db} {r}"
+            );
+        }
         sum += db;
     }
+    // On these tiny textured photos the depth haze (not scaled with the water) keeps 3 of the 6
+    // pairs stronger than their target even at a small scale; the other 3 reach it.
+    assert!(
+        on_target >= 3,
+        "{on_target} of 6 pairs at their target strength"
+    );
     let mean = strength["mean"].as_f64().unwrap();
     assert!((mean - sum / 6.0).abs() < 1e-3, "{mean} {}", sum / 6.0);
     // A resume of the finished folder is accepted (the strength is not a setting).

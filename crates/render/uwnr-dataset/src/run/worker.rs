@@ -241,47 +241,61 @@ impl Context<'_> {
         save_lightfield: bool,
         labels: &PairLabels,
     ) -> std::result::Result<(serde_json::Value, Option<String>, Option<f32>), String> {
-        let decoded;
-        // A calibrated water: the reference's style with the pair's own water in it.
-        let mut calibrated = None;
-        if let (Some(target), Some((_, style))) = (self.calibration, reference) {
-            let mut style = ReferenceStyle::clone(style);
-            if let Some(water) = style.water.as_mut() {
-                let (affine, record) = target
-                    .water_for(water.affine, clean, seed)
-                    .map_err(|e| e.to_string())?;
-                uwnr_model::style::set_affine(water, affine);
-                calibrated = Some((style, record));
-            }
-        }
-        let (input, reference_source) = match reference {
-            Some((r, lf)) => {
-                let lf = calibrated.as_ref().map_or(&**lf, |(s, _)| s);
+        // A calibrated water: the reference's style with the pair's own water in it, the water's
+        // scale corrected on the render itself until its strength is the target's.
+        let mut calibration = match (self.calibration, reference) {
+            (Some(target), Some((_, style))) => match style.water.as_ref() {
+                Some(water) => Some(
+                    target
+                        .water_for(water.affine, clean, seed)
+                        .map_err(|e| e.to_string())?,
+                ),
+                None => None,
+            },
+            _ => None,
+        };
+        let reference_image = match reference {
+            Some((r, _)) if self.renderer.wants_reference_image() => {
                 let path = &self.refs[*r];
-                let image = if self.renderer.wants_reference_image() {
-                    decoded = load_rgb(path, self.limits)
-                        .map_err(|e| format!("reading reference {}: {e}", path.display()))?;
-                    Some(&decoded)
-                } else {
-                    None
-                };
-                (
-                    Some(ReferenceInput {
-                        image,
-                        style: Some(lf),
-                    }),
-                    Some(path.to_string_lossy().into_owned()),
+                Some(
+                    load_rgb(path, self.limits)
+                        .map_err(|e| format!("reading reference {}: {e}", path.display()))?,
                 )
             }
-            None => (None, None),
+            _ => None,
         };
-        let lf = reference.map(|(_, style)| &style.light_field);
+        let reference_source = reference.map(|(r, _)| self.refs[*r].to_string_lossy().into_owned());
         let Rendered {
             image: underwater,
             mut params,
-        } = worker
-            .render(clean, depth, input, seed)
-            .map_err(|e| e.to_string())?;
+        } = loop {
+            let calibrated = match (&calibration, reference) {
+                (Some(pw), Some((_, style))) => {
+                    let mut style = ReferenceStyle::clone(style);
+                    if let Some(water) = style.water.as_mut() {
+                        uwnr_model::style::set_affine(water, pw.water());
+                    }
+                    Some(style)
+                }
+                _ => None,
+            };
+            let input = reference.map(|(_, lf)| ReferenceInput {
+                image: reference_image.as_ref(),
+                style: Some(calibrated.as_ref().unwrap_or(lf)),
+            });
+            let rendered = worker
+                .render(clean, depth, input, seed)
+                .map_err(|e| e.to_string())?;
+            let Some(pw) = calibration.as_mut() else {
+                break rendered;
+            };
+            let db = uwnr_model::water::pair_psnr(&rendered.image.quantised(), clean)
+                .map_err(|e| e.to_string())?;
+            if !pw.corrected(db) {
+                break rendered;
+            }
+        };
+        let lf = reference.map(|(_, style)| &style.light_field);
         let name = format!("{id}.png");
         let write = |dir: &str, f: &dyn Fn(&Path) -> uwnr_core::Result<()>| {
             let p = self.out.join(dir).join(&name);
@@ -307,8 +321,8 @@ impl Context<'_> {
                 .map_err(|e| format!("writing {}: {e}", p.display()))?;
         }
         write(UNDERWATER_DIR, &|p| save_rgb(p, &underwater))?;
-        if let Some((_, record)) = calibrated {
-            params["strength"] = record;
+        if let Some(pw) = &calibration {
+            params["strength"] = pw.record();
         }
         // The pair as stored: both sides 8-bit.
         let strength_db = uwnr_model::water::pair_psnr(&underwater.quantised(), clean)
