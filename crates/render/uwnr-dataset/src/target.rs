@@ -31,7 +31,7 @@ use serde_json::{Value, json};
 use uwnr_core::Image;
 use uwnr_core::io::{DecodeLimits, load_rgb};
 use uwnr_model::water::{
-    Affine, MAX_STRENGTH_SCALE, WaterBank, bank_entry, bundled_bank, calibrate,
+    Affine, MAX_STRENGTH_SCALE, WaterBank, bank_entry, bundled_bank, calibrate, rescaled,
 };
 
 use crate::error::{DatasetError, Result};
@@ -263,8 +263,7 @@ impl PairWater {
         {
             return false;
         }
-        let next = (self.scale * 10f32.powf((rendered_db - self.target_db) / 20.0))
-            .clamp(0.0, MAX_STRENGTH_SCALE);
+        let next = rescaled(self.scale, rendered_db, self.target_db);
         if (next - self.scale).abs() < 1e-4 {
             return false;
         }

@@ -158,9 +158,17 @@ pub fn calibrate(water: &Affine, clean: &Image, target_db: f32) -> Result<(Affin
         if !now.is_finite() {
             break;
         }
-        s = (s * 10f32.powf((now - target_db) / 20.0)).clamp(0.0, MAX_STRENGTH_SCALE);
+        s = rescaled(s, now, target_db);
     }
     Ok((water.scaled(s), s))
+}
+
+/// The scale that moves a pair rendered at scale `s` with strength `now_db` to `target_db`, by
+/// the closed form of [`Affine::scaled`] (PSNR falls by `20 log10 s` until clipping bends it),
+/// within [0, [`MAX_STRENGTH_SCALE`]].
+#[must_use]
+pub fn rescaled(s: f32, now_db: f32, target_db: f32) -> f32 {
+    (s * 10f32.powf((now_db - target_db) / 20.0)).clamp(0.0, MAX_STRENGTH_SCALE)
 }
 
 /// Fixed-point steps of [`calibrate`].

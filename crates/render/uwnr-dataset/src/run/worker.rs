@@ -265,20 +265,24 @@ impl Context<'_> {
             _ => None,
         };
         let reference_source = reference.map(|(r, _)| self.refs[*r].to_string_lossy().into_owned());
+        // Cloned once (the light field is 192 KiB); its water is put back before each render.
+        let mut calibrated = calibration
+            .as_ref()
+            .and(reference)
+            .map(|(_, style)| ReferenceStyle::clone(style));
         let Rendered {
             image: underwater,
             mut params,
         } = loop {
-            let calibrated = match (&calibration, reference) {
-                (Some(pw), Some((_, style))) => {
-                    let mut style = ReferenceStyle::clone(style);
-                    if let Some(water) = style.water.as_mut() {
-                        uwnr_model::style::set_affine(water, pw.water());
-                    }
-                    Some(style)
+            // The reference's own water each time: `set_affine` only raises its attenuation.
+            if let (Some(pw), Some((_, original)), Some(style)) =
+                (&calibration, reference, calibrated.as_mut())
+            {
+                style.water.clone_from(&original.water);
+                if let Some(water) = style.water.as_mut() {
+                    uwnr_model::style::set_affine(water, pw.water());
                 }
-                _ => None,
-            };
+            }
             let input = reference.map(|(_, lf)| ReferenceInput {
                 image: reference_image.as_ref(),
                 style: Some(calibrated.as_ref().unwrap_or(lf)),
@@ -324,10 +328,12 @@ impl Context<'_> {
         if let Some(pw) = &calibration {
             params["strength"] = pw.record();
         }
-        // The pair as stored: both sides 8-bit.
-        let strength_db = uwnr_model::water::pair_psnr(&underwater.quantised(), clean)
-            .ok()
-            .filter(|v| v.is_finite());
+        // The pair as stored: both sides 8-bit (a calibrated pair's last render was measured).
+        let strength_db = match calibration.as_ref().and_then(|pw| pw.rendered_db.last()) {
+            Some(&db) => Some(db),
+            None => uwnr_model::water::pair_psnr(&underwater.quantised(), clean).ok(),
+        }
+        .filter(|v| v.is_finite());
         Ok((params, reference_source, strength_db))
     }
 }
