@@ -30,9 +30,7 @@ use serde::{Deserialize, Serialize};
 use serde_json::{Value, json};
 use uwnr_core::Image;
 use uwnr_core::io::{DecodeLimits, load_rgb};
-use uwnr_model::water::{
-    Affine, MAX_STRENGTH_SCALE, WaterBank, bank_entry, bundled_bank, calibrate, rescaled,
-};
+use uwnr_model::water::{Affine, WaterBank, bank_entry, bundled_bank, calibrate, rescaled};
 
 use crate::error::{DatasetError, Result};
 use crate::plan::discover_images;
@@ -254,7 +252,7 @@ impl PairWater {
     /// After a render of strength `rendered_db`: whether to render again, with the scale moved
     /// by the closed form of [`Affine::scaled`] (PSNR falls by `20 log10 s`). Stops within
     /// [`STRENGTH_TOLERANCE_DB`], after [`MAX_STRENGTH_RENDERS`], or when the scale is held at
-    /// a bound ([`MAX_STRENGTH_SCALE`] or 0).
+    /// a bound ([`uwnr_model::water::MAX_STRENGTH_SCALE`] or 0).
     pub fn corrected(&mut self, rendered_db: f32) -> bool {
         self.rendered_db.push(rendered_db);
         if !rendered_db.is_finite()
@@ -355,6 +353,7 @@ impl StrengthSummary {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use uwnr_model::water::MAX_STRENGTH_SCALE;
 
     #[test]
     fn strength_summary_by_nearest_rank() {
