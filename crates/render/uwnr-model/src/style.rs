@@ -253,6 +253,20 @@ pub fn set_affine(water: &mut Water, affine: Affine) {
     water.affine = Some(affine);
 }
 
+/// `water` (a reference's, as estimated) with the water `base` taken `s` of the way
+/// ([`Affine::scaled`]): the attenuation the reference's contrast implies is scaled by `s` as
+/// well (a path `s` times as long through the same water), then [`set_affine`] puts the scaled
+/// water in. Without the scaling, the reference's contrast set a floor under the haze that a
+/// weaker water could not go below, and datasets calibrated to a strength came out stronger than
+/// their target (`MODEL_CARD.md`, "Strength corrected on the render").
+pub fn set_scaled_water(water: &mut Water, base: Affine, s: f32) {
+    let s = s.max(0.0);
+    for beta in &mut water.beta {
+        *beta *= s;
+    }
+    set_affine(water, base.scaled(s));
+}
+
 /// Per channel, the mean standard deviation over the [`DETAIL_WINDOW`]-pixel windows that fit
 /// in the image, divided by the channel's overall standard deviation: how much of its contrast
 /// is fine detail. Measured on the image shrunk to [`DETAIL_SIDE`] (never enlarged), so that
@@ -536,5 +550,48 @@ mod tests {
         );
         assert!(water.beta[1] > 0.0 && water.beta[1] < water.beta[0]);
         assert_eq!(water.beta[2], 0.0);
+    }
+
+    #[test]
+    fn a_scaled_water_scales_the_reference_attenuation() {
+        let water = Water {
+            stats: ChannelStats {
+                mean: [0.0; 3],
+                std: [1.0; 3],
+            },
+            veil: [0.1, 0.4, 0.5],
+            beta: [2.0, 1.0, 0.5],
+            detail: None,
+            affine: None,
+        };
+        // A mild water: its own attenuation (-ln a / depth) is below the reference's.
+        let base = Affine {
+            gain: [0.8, 0.9, 0.9],
+            offset: [0.0, 0.05, 0.06],
+        };
+        let at = |s: f32| {
+            let mut w = water;
+            set_scaled_water(&mut w, base, s);
+            w
+        };
+        // At scale 1 the reference's contrast sets it, as set_affine does.
+        let mut full = water;
+        set_affine(&mut full, base);
+        assert_eq!(at(1.0).beta, full.beta);
+        assert_eq!(at(1.0).beta, [2.0, 1.0, 0.5]);
+        // At half the path, half the attenuation (the water's own bound is lower still).
+        let half = at(0.5);
+        for c in 0..3 {
+            assert!(
+                (half.beta[c] - water.beta[c] * 0.5).abs() < 1e-6,
+                "{:?}",
+                half.beta
+            );
+        }
+        assert_eq!(half.affine, Some(base.scaled(0.5)));
+        // No water, no attenuation.
+        assert_eq!(at(0.0).beta, [0.0; 3]);
+        // Stronger than the reference: more of it.
+        assert!(at(1.5).beta.iter().zip(full.beta).all(|(a, b)| *a > b));
     }
 }

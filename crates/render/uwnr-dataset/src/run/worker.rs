@@ -274,13 +274,13 @@ impl Context<'_> {
             image: underwater,
             mut params,
         } = loop {
-            // The reference's own water each time: `set_affine` only raises its attenuation.
+            // The reference's own water each time, scaled with the pair's.
             if let (Some(pw), Some((_, original)), Some(style)) =
                 (&calibration, reference, calibrated.as_mut())
             {
                 style.water.clone_from(&original.water);
                 if let Some(water) = style.water.as_mut() {
-                    uwnr_model::style::set_affine(water, pw.water());
+                    uwnr_model::style::set_scaled_water(water, pw.base, pw.scale);
                 }
             }
             let input = reference.map(|(_, lf)| ReferenceInput {
