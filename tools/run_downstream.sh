@@ -28,6 +28,9 @@ REAL=${REAL-$DATA/paired/euvp-dark}
 # TARGET calibrates the bundled model's set to a water (`uwnr dataset --target`): e.g.
 # TARGET=$DATA/paired/uieb-train or TARGET=../uwnr-splits/lsui-train; the baselines' sets ignore it.
 TARGET=${TARGET-}
+# WEIGHTS renders the uwnr set with another UWNR model than the bundled one (e.g. the v4 rows of
+# docs/RESULTS.md: WEIGHTS=FILE with v4's file from the commit that bundled it).
+WEIGHTS=${WEIGHTS-}
 SPLITS=${SPLITS:-../uwnr-splits}
 [ -d "$SPLITS/lsui-test" ] || bash tools/lsui_split.sh "$SPLITS" >/dev/null
 export LIBTORCH_USE_PYTORCH=1
@@ -41,5 +44,6 @@ exec "$BIN" experiment downstream \
   --references "$DATA/references" \
   --test "$DATA/paired/uieb-val" "$DATA/paired/lsui" "$SPLITS/lsui-test" \
   ${REAL:+--real "$REAL"} ${TARGET:+--target "$TARGET"} \
+  ${WEIGHTS:+--weights "$WEIGHTS"} \
   ${METHODS:+--methods "$METHODS"} --per-image 4 --size 256x256 \
   --budget 6000 --seed "$SEED" --device "$DEVICE" --out "$OUT"
