@@ -2,7 +2,9 @@
 """Mean and spread of downstream rows over several runs of `uwnr experiment downstream`.
 
 Usage: python3 tools/downstream_seeds.py [--versus ROW] RUN_DIR... (each holding a results.json;
-typically the same command with --seed 0, 1, 2). For every row name found in any run it prints,
+typically the same command with --seed 0, 1, 2). A RUN_DIR written LABEL=DIR renames that run's rows
+(all but the unenhanced input) to LABEL, so runs of one method with different settings (v4's
+weights and v5's, both rows named uwnr) become separate rows. For every row name found in any run it prints,
 per test set and metric, the mean over the runs that have the row, and the spread as the sample
 standard deviation and the min-max range, with the number of runs behind it.
 
@@ -32,13 +34,21 @@ def main(argv):
         print(__doc__.strip().splitlines()[2], file=sys.stderr)
         return 2
     runs = []
-    for d in args:
+    for arg in args:
+        label, sep, d = arg.partition("=")
+        if not sep or "/" in label:
+            label, d = None, arg
         path = Path(d) / "results.json"
         try:
-            runs.append((d, json.loads(path.read_text())))
+            run = json.loads(path.read_text())
         except (OSError, ValueError) as e:
             print(f"error: {path}: {e}", file=sys.stderr)
             return 1
+        if label:
+            for row in run["rows"]:
+                if row["name"] != "none":
+                    row["name"] = label
+        runs.append((d, run))
     tests = [t["name"] for t in runs[0][1]["tests"]]
     for d, r in runs[1:]:
         if [t["name"] for t in r["tests"]] != tests:
