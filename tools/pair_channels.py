@@ -45,17 +45,22 @@ def main(argv):
     if not args:
         print(__doc__.strip().splitlines()[2], file=sys.stderr)
         return 2
-    print("| pairs | n | clean R/G/B | underwater R/G/B | ratio R/G/B |")
-    print("|---|---:|---|---|---|")
+    lines = []
     for d in args:
         try:
             n, c, u = channel_means(Path(d), limit)
         except (OSError, ValueError) as e:
             print(f"error: {e}", file=sys.stderr)
             return 1
-        fmt = lambda v, k: "/".join(f"{x:.{k}f}" for x in v)
-        print(f"| {d} | {n} | {fmt(c, 0)} | {fmt(u, 0)} | {fmt(u / c, 2)} |")
+        lines.append(f"| {d} | {n} | {rgb(c, 0)} | {rgb(u, 0)} | {rgb(u / c, 2)} |")
+    print("| pairs | n | clean R/G/B | underwater R/G/B | ratio R/G/B |")
+    print("|---|---:|---|---|---|")
+    print("\n".join(lines))
     return 0
+
+
+def rgb(v, digits):
+    return "/".join(f"{x:.{digits}f}" for x in v)
 
 
 if __name__ == "__main__":
