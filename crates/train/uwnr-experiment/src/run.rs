@@ -175,7 +175,7 @@ fn settings(spec: &DownstreamSpec, sets: &[TrainingSet]) -> Result<serde_json::V
             Ok(json!({ "name": s.name, "params": params }))
         })
         .collect::<Result<Vec<_>>>()?;
-    Ok(json!({
+    let mut settings = json!({
         "clean": paths(&spec.clean),
         "references": paths(&spec.references),
         "tests": paths(&spec.tests),
@@ -189,7 +189,13 @@ fn settings(spec: &DownstreamSpec, sets: &[TrainingSet]) -> Result<serde_json::V
         "budget": spec.budget,
         "eval_max_side": spec.eval_max_side,
         "vgg19": spec.vgg19.as_ref().map(|p| p.display().to_string()),
-    }))
+    });
+    // Only when set, so that folders made before the field existed still resume.
+    if let Some(t) = &spec.target {
+        settings["target"] =
+            json!({ "kind": t.kind, "source": t.source, "entries": t.entries.len() });
+    }
+    Ok(settings)
 }
 
 /// Checks the output folder's recorded settings against this run's (or records them).

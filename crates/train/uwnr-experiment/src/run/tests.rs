@@ -1,8 +1,7 @@
 use super::*;
 
-#[test]
-fn every_row_gets_the_same_number_of_steps() {
-    let spec = |budget| DownstreamSpec {
+fn spec(budget: usize) -> DownstreamSpec {
+    DownstreamSpec {
         clean: vec![],
         references: vec![],
         tests: vec![],
@@ -22,7 +21,11 @@ fn every_row_gets_the_same_number_of_steps() {
         vgg19: None,
         limits: DecodeLimits::default(),
         target: None,
-    };
+    }
+}
+
+#[test]
+fn every_row_gets_the_same_number_of_steps() {
     let s = spec(6000);
     for (pairs, epochs) in [(1172, 6), (2415, 3), (4, 1500)] {
         let cfg = row_config(&s, pairs);
@@ -45,4 +48,25 @@ fn short_names_are_unique() {
         short_names(&dirs),
         vec!["lsui", "lsui-2", "uieb-val", "lsui-3"]
     );
+}
+
+#[test]
+fn the_target_is_recorded_only_when_set() {
+    let mut s = spec(6000);
+    let without = settings(&s, &[]).unwrap();
+    assert!(without.get("target").is_none());
+    s.target = Some(uwnr_dataset::WaterTarget::bundled().unwrap());
+    let with = settings(&s, &[]).unwrap();
+    assert_eq!(with["target"]["source"], "bundled");
+    assert!(with["target"]["entries"].as_u64().unwrap() > 0);
+    // A folder made without a target refuses a run with one.
+    let dir = std::env::temp_dir().join(format!("uwnr-settings-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    check_settings(&dir, &without).unwrap();
+    check_settings(&dir, &without).unwrap();
+    assert!(matches!(
+        check_settings(&dir, &with),
+        Err(ExperimentError::SettingsDiffer { ref field, .. }) if field == "target"
+    ));
+    std::fs::remove_dir_all(&dir).unwrap();
 }
