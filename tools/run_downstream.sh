@@ -10,7 +10,9 @@
 # training by tools/lsui_split.sh, made in SPLITS). The bundled model renders the uwnr set.
 #
 # Run from the repository root; run it again to continue after a stop (every stage resumes).
-# Needs the release binary with the tch feature (about 2.5-3 hours on a 2-core CPU):
+# Needs the release binary with the tch feature (about 2.5-3 hours on a 2-core CPU), built against
+# pip's torch in the python3 on PATH: tch 0.22 expects torch 2.9.0 (`pip install torch==2.9.0`;
+# with another 2.9.x add LIBTORCH_BYPASS_VERSION_CHECK=1):
 #   LIBTORCH_USE_PYTORCH=1 cargo build --release -p uwnr-cli --features tch
 set -euo pipefail
 DATA=${DATA:-../shared/data}
