@@ -1,0 +1,143 @@
+#!/usr/bin/env bash
+# The realism table (issue 49): FID, KID and FD-ct of every method's renders against real
+# underwater photos, on the protocol of the paper's Table 2 with our own data.
+#
+#   UWNR_BIN=target/release/uwnr bash tools/realism_table.sh INCEPTION.onnx [OUT_DIR]
+#
+# INCEPTION.onnx is the FID network made by tools/export_fid_inception.py (never downloaded
+# here). OUT_DIR (default runs/realism) receives everything; docs/RESULTS.md ("Realism") holds
+# what one run printed.
+#
+# Protocol:
+# - Every image file under $REFERENCES (default ../shared/data/references, recursively) is listed
+#   by its path below that folder, sorted bytewise (LC_ALL=C); the 1st, 3rd, 5th... form half A
+#   (the references), the 2nd, 4th... half B (the real set). The lists are OUT_DIR/half-a.txt and
+#   OUT_DIR/half-b.txt.
+# - Both halves are brought to the renders' form by `uwnr dataset --size 256x256` (scaled to
+#   cover, centre-cropped, PNG): the real set and the floor row are the `clean/` side of such a
+#   dataset made from the photos of each half.
+# - The clean photos ($CLEAN, default ../shared/data/inair, 281) are rendered once each with
+#   `uwnr dataset -k 1 --size 256x256 --seed S --references <half A> --method M` for every method
+#   and seed; the row "clean photos" is the `clean/` side of those datasets (the same 256x256
+#   centre-crops, unrendered).
+# - Each set is scored against half B by `uwnr eval --images SET --real HALF_B --seed S`: with
+#   `--inception` (FID, KID) and without (FD-ct, uwnr's colour-texture features). KID's subsets
+#   are seeded with S. Rows are mean ± sample standard deviation (n - 1) over the seeds; the
+#   clean and floor rows change with the seed only through KID's subsets.
+#
+# Environment: UWNR_BIN (default target/release/uwnr), REFERENCES, CLEAN, SEEDS (default
+# "0 1 2"), METHODS (default every method of `uwnr dataset --method`), JOBS (uwnr -j).
+# Finished steps are kept: running the same command again resumes.
+set -euo pipefail
+
+if [[ $# -lt 1 || ! -f "$1" ]]; then
+    echo "usage: UWNR_BIN=target/release/uwnr bash tools/realism_table.sh INCEPTION.onnx [OUT_DIR]" >&2
+    echo "(make INCEPTION.onnx with tools/export_fid_inception.py)" >&2
+    exit 2
+fi
+MODEL=$1
+OUT=${2:-runs/realism}
+UWNR=${UWNR_BIN:-target/release/uwnr}
+REFERENCES=${REFERENCES:-../shared/data/references}
+CLEAN=${CLEAN:-../shared/data/inair}
+SEEDS=${SEEDS:-"0 1 2"}
+METHODS=${METHODS:-"uwnr reinhard uisa seathru jerlov uwgan haze"}
+SIZE=256x256
+JOBS_ARG=()
+[[ -n "${JOBS:-}" ]] && JOBS_ARG=(-j "$JOBS")
+
+for d in "$REFERENCES" "$CLEAN"; do
+    [[ -d "$d" ]] || { echo "missing folder $d" >&2; exit 2; }
+done
+[[ -x "$UWNR" ]] || { echo "no uwnr binary at $UWNR (set UWNR_BIN)" >&2; exit 2; }
+mkdir -p "$OUT"
+log() { echo "[$(date +%H:%M:%S)] $*" >&2; }
+
+# 1. The split, and flat folders of links to each half (uwnr eval reads one folder level).
+find "$REFERENCES" -type f \( -iname '*.png' -o -iname '*.jpg' -o -iname '*.jpeg' -o -iname '*.bmp' \
+    -o -iname '*.tif' -o -iname '*.tiff' -o -iname '*.webp' \) -printf '%P\n' | LC_ALL=C sort >"$OUT/all.txt"
+awk 'NR % 2 == 1' "$OUT/all.txt" >"$OUT/half-a.txt"
+awk 'NR % 2 == 0' "$OUT/all.txt" >"$OUT/half-b.txt"
+refs_abs=$(cd "$REFERENCES" && pwd)
+for half in a b; do
+    rm -rf "$OUT/half-$half"
+    mkdir -p "$OUT/half-$half"
+    while IFS= read -r rel; do
+        ln -s "$refs_abs/$rel" "$OUT/half-$half/${rel//\//__}"
+    done <"$OUT/half-$half.txt"
+done
+log "split: $(wc -l <"$OUT/half-a.txt") references (half A), $(wc -l <"$OUT/half-b.txt") real photos (half B)"
+
+dataset() { # OUT_SUBDIR CLEAN_DIR METHOD SEED
+    "$UWNR" dataset --clean "$2" --references "$OUT/half-a" -k 1 --size "$SIZE" --seed "$4" \
+        --method "$3" -o "$OUT/$1" --no-gallery "${JOBS_ARG[@]}" >"$OUT/$1.log" 2>&1 ||
+        { echo "uwnr dataset failed, see $OUT/$1.log" >&2; exit 1; }
+}
+
+# 2. The real set and the floor: each half's photos at the renders' size (the clean/ side).
+for half in a b; do
+    [[ -d "$OUT/crops-$half/clean" ]] || { log "crops of half ${half^^}"; dataset "crops-$half" "$OUT/half-$half" reinhard 0; }
+done
+REAL="$OUT/crops-b/clean"
+
+# 3. Renders.
+for m in $METHODS; do
+    for s in $SEEDS; do
+        [[ -f "$OUT/renders/$m-s$s/manifest.jsonl" && -d "$OUT/renders/$m-s$s/underwater" ]] && continue
+        log "render $m seed $s"
+        mkdir -p "$OUT/renders"
+        dataset "renders/$m-s$s" "$CLEAN" "$m" "$s"
+    done
+done
+
+# 4. Scores.
+score() { # NAME IMAGES SEED
+    local dir="$OUT/scores/$1-s$3"
+    mkdir -p "$dir"
+    if [[ ! -f "$dir/fid.json" ]]; then
+        log "FID/KID $1 seed $3"
+        "$UWNR" eval --images "$2" --real "$REAL" --inception "$MODEL" --seed "$3" --json "$dir/fid.json.tmp" >/dev/null 2>"$dir/fid.log"
+        mv "$dir/fid.json.tmp" "$dir/fid.json"
+    fi
+    if [[ ! -f "$dir/fdct.json" ]]; then
+        "$UWNR" eval --images "$2" --real "$REAL" --seed "$3" --json "$dir/fdct.json.tmp" >/dev/null 2>"$dir/fdct.log"
+        mv "$dir/fdct.json.tmp" "$dir/fdct.json"
+    fi
+}
+first_seed=${SEEDS%% *}
+first_method=${METHODS%% *}
+for s in $SEEDS; do
+    score clean "$OUT/renders/$first_method-s$first_seed/clean" "$s"
+    for m in $METHODS; do
+        score "$m" "$OUT/renders/$m-s$s/underwater" "$s"
+    done
+    score floor "$OUT/crops-a/clean" "$s"
+done
+
+# 5. The table.
+row() { # LABEL NAME
+    local label=$1 name=$2
+    local files=()
+    for s in $SEEDS; do files+=("$OUT/scores/$name-s$s"); done
+    jq -rn --arg label "$label" '
+        def stats: (add / length) as $m
+            | [$m, (if length > 1 then ((map((. - $m) * (. - $m)) | add) / (length - 1)) | sqrt else 0 end)];
+        [inputs] as $all
+        | ($all | map(select(.kind == "fid") | .sets.fid) | stats) as $fid
+        | ($all | map(select(.kind == "fid") | .sets.kid * 1000) | stats) as $kid
+        | ($all | map(select(.kind == "fdct") | .sets.fd_ct) | stats) as $fd
+        | "| \($label) | \($fid[0] * 10 | round / 10) ± \($fid[1] * 10 | round / 10) | \($kid[0] * 10 | round / 10) ± \($kid[1] * 10 | round / 10) | \($fd[0] * 100 | round / 100) ± \($fd[1] * 100 | round / 100) |"' \
+        < <(for f in "${files[@]}"; do jq -c '. + {kind: "fid"}' "$f/fid.json"; jq -c '. + {kind: "fdct"}' "$f/fdct.json"; done)
+}
+n_clean=$(find "$OUT/renders/$first_method-s$first_seed/underwater" -type f | wc -l)
+n_real=$(find "$REAL" -type f | wc -l)
+{
+    echo "| renders | FID | KID x1000 | FD-ct |"
+    echo "|---|---:|---:|---:|"
+    row "the clean photos themselves" clean
+    for m in $METHODS; do row "$m" "$m"; done
+    row "real photos of half A (the floor)" floor
+    echo
+    echo "$n_clean renders per method and seed against $n_real real photos (half B); mean ± std over seeds $SEEDS"
+} >"$OUT/table.md"
+cat "$OUT/table.md"
