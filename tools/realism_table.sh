@@ -10,9 +10,11 @@
 #
 # Protocol:
 # - Every image file under $REFERENCES (default ../shared/data/references, recursively) is listed
-#   by its path below that folder, sorted bytewise (LC_ALL=C); the 1st, 3rd, 5th... form half A
-#   (the references), the 2nd, 4th... half B (the real set). The lists are OUT_DIR/half-a.txt and
-#   OUT_DIR/half-b.txt.
+#   by its path below that folder, sorted bytewise (LC_ALL=C), and byte-identical copies are
+#   dropped (the first path of each content is kept: the same photo filed under two folders would
+#   otherwise land in both halves); of the rest, the 1st, 3rd, 5th... form half A (the
+#   references), the 2nd, 4th... half B (the real set). The lists are OUT_DIR/half-a.txt and
+#   OUT_DIR/half-b.txt, the dropped copies OUT_DIR/copies.txt.
 # - Both halves are brought to the renders' form by `uwnr dataset --size 256x256` (scaled to
 #   cover, centre-cropped, PNG): the real set and the floor row are the `clean/` side of such a
 #   dataset made from the photos of each half.
@@ -51,13 +53,25 @@ for d in "$REFERENCES" "$CLEAN"; do
 done
 [[ -x "$UWNR" ]] || { echo "no uwnr binary at $UWNR (set UWNR_BIN)" >&2; exit 2; }
 mkdir -p "$OUT"
+OUT_ABS=$(cd "$OUT" && pwd)
 log() { echo "[$(date +%H:%M:%S)] $*" >&2; }
 
 # 1. The split, and flat folders of links to each half (uwnr eval reads one folder level).
 find "$REFERENCES" -type f \( -iname '*.png' -o -iname '*.jpg' -o -iname '*.jpeg' -o -iname '*.bmp' \
     -o -iname '*.tif' -o -iname '*.tiff' -o -iname '*.webp' \) -printf '%P\n' | LC_ALL=C sort >"$OUT/all.txt"
-awk 'NR % 2 == 1' "$OUT/all.txt" >"$OUT/half-a.txt"
-awk 'NR % 2 == 0' "$OUT/all.txt" >"$OUT/half-b.txt"
+# sha256sum prints "HASH  PATH": the path starts at column 67.
+(cd "$REFERENCES" && tr '\n' '\0' <"$OUT_ABS/all.txt" | xargs -0 sha256sum) >"$OUT/sha256.txt"
+awk '!seen[$1]++ { print substr($0, 67) }' "$OUT/sha256.txt" >"$OUT/unique.txt"
+awk 'seen[$1]++ { print substr($0, 67) }' "$OUT/sha256.txt" >"$OUT/copies.txt"
+for half in a b; do
+    awk -v r=$([[ $half == a ]] && echo 1 || echo 0) 'NR % 2 == r' "$OUT/unique.txt" >"$OUT/half-$half.txt.new"
+    # What an earlier run rendered and scored was made with its own split: refuse to mix.
+    if [[ -f "$OUT/half-$half.txt" ]] && ! cmp -s "$OUT/half-$half.txt" "$OUT/half-$half.txt.new"; then
+        echo "$OUT/half-$half.txt differs from the split of $REFERENCES: use a new OUT_DIR" >&2
+        exit 1
+    fi
+    mv "$OUT/half-$half.txt.new" "$OUT/half-$half.txt"
+done
 refs_abs=$(cd "$REFERENCES" && pwd)
 for half in a b; do
     rm -rf "$OUT/half-$half"
@@ -66,7 +80,7 @@ for half in a b; do
         ln -s "$refs_abs/$rel" "$OUT/half-$half/${rel//\//__}"
     done <"$OUT/half-$half.txt"
 done
-log "split: $(wc -l <"$OUT/half-a.txt") references (half A), $(wc -l <"$OUT/half-b.txt") real photos (half B)"
+log "split: $(wc -l <"$OUT/all.txt") files, $(wc -l <"$OUT/copies.txt") byte-identical copies dropped, $(wc -l <"$OUT/half-a.txt") references (half A), $(wc -l <"$OUT/half-b.txt") real photos (half B)"
 
 dataset() { # OUT_SUBDIR CLEAN_DIR METHOD SEED
     "$UWNR" dataset --clean "$2" --references "$OUT/half-a" -k 1 --size "$SIZE" --seed "$4" \
