@@ -11,7 +11,7 @@ use uwnr_core::io::encode_rgb_png;
 use crate::access::Access;
 use crate::engine::Engine;
 use crate::error::{Result, ServeError};
-use crate::http::{Request, Response};
+use crate::http::{Request, Response, Service};
 use crate::jobs::Pool;
 use crate::view::{
     CleanSource, DepthChoice, PAGE_METHODS, RenderSize, ViewRequest, command_line, page_spec,
@@ -47,6 +47,21 @@ pub struct App {
     pub engine: Arc<Engine>,
     pub pool: Arc<Pool<ViewRequest>>,
     pub access: Access,
+}
+
+/// The guard runs on the head alone, before the body is read or counted; `handle` checks again,
+/// for callers in the same process.
+impl Service for App {
+    fn admit(&self, head: &Request) -> std::result::Result<(), Response> {
+        self.access
+            .check(head)
+            .map(|_| ())
+            .map_err(|e| Response::error(e.status(), &e.to_string()))
+    }
+
+    fn handle(&self, request: Request) -> Response {
+        App::handle(self, &request)
+    }
 }
 
 fn png(bytes: Vec<u8>) -> Response {

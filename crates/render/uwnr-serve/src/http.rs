@@ -10,9 +10,12 @@
 //! - time: the request head must arrive within [`HEADER_DEADLINE`], the body within
 //!   [`BODY_DEADLINE`], the whole exchange within [`CONNECTION_DEADLINE`]; a slow or idle client
 //!   costs a task and a socket until then, never a handler thread;
+//! - admission: a request's head goes to [`Service::admit`] (the local-only guard) as soon as it
+//!   has arrived; a request refused there is answered at once, before any byte of its body is
+//!   read or counted, so a client the guard refuses takes no memory from the ones it lets in;
 //! - bodies: at most [`HttpLimits::max_upload`] bytes to `/api/upload`, [`HttpLimits::small_body`]
-//!   elsewhere (`413`, before reading when the length is declared); an upload's bytes are taken
-//!   from the server's memory [`Budget`] before it is read (`503` when they are in use);
+//!   elsewhere (`413`, before reading when the length is declared); an admitted upload's bytes
+//!   are taken from the server's memory [`Budget`] before it is read (`503` when they are in use);
 //! - handlers: at most [`HttpLimits::handlers`] run at once; a request that waits
 //!   [`HANDLER_WAIT`] for one is answered `503`.
 //!
@@ -79,6 +82,13 @@ impl Request {
             headers: HeaderMap::new(),
             body: Bytes::new(),
         }
+    }
+
+    /// The path's segments, empty ones left out (`//api//info/` is `["api", "info"]`): the one
+    /// reading of the path that the guard, the body limits and the routes all use.
+    #[must_use]
+    pub fn segments(&self) -> Vec<&str> {
+        self.path.split('/').filter(|s| !s.is_empty()).collect()
     }
 
     /// The first query parameter named `name`.
@@ -199,12 +209,20 @@ pub struct HttpLimits {
     pub small_body: u64,
 }
 
-/// What answers requests (runs on a handler thread).
-pub type Handler = Arc<dyn Fn(Request) -> Response + Send + Sync>;
+/// What answers requests.
+pub trait Service: Send + Sync {
+    /// Whether a request is answered at all, from its head alone (`Err`: the answer that refuses
+    /// it). Called on the connection's task as soon as the head has arrived, before any byte of
+    /// the body is read or counted; it must not block.
+    fn admit(&self, head: &Request) -> std::result::Result<(), Response>;
+
+    /// Answers an admitted request, its body read (runs on a handler thread).
+    fn handle(&self, request: Request) -> Response;
+}
 
 struct Shared {
     limits: HttpLimits,
-    handle: Handler,
+    service: Arc<dyn Service>,
     handlers: Arc<Semaphore>,
     budget: Arc<Budget>,
 }
@@ -217,12 +235,12 @@ pub struct Listener {
 }
 
 impl Listener {
-    /// Serves `listener` with `handle`, within `limits`, taking upload bodies from `budget`.
+    /// Serves `listener` with `service`, within `limits`, taking upload bodies from `budget`.
     pub fn start(
         listener: TcpListener,
         limits: HttpLimits,
         budget: Arc<Budget>,
-        handle: Handler,
+        service: Arc<dyn Service>,
     ) -> std::io::Result<Self> {
         let addr = listener.local_addr()?;
         listener.set_nonblocking(true)?;
@@ -235,7 +253,7 @@ impl Listener {
         let stop = Arc::new(Notify::new());
         let shared = Arc::new(Shared {
             limits,
-            handle,
+            service,
             handlers: Arc::new(Semaphore::new(limits.handlers.max(1))),
             budget,
         });
@@ -346,7 +364,17 @@ async fn answer(req: hyper::Request<Incoming>, shared: &Shared) -> Response {
         .path_and_query()
         .map_or_else(|| parts.uri.path().to_string(), |p| p.as_str().to_string());
     let (path, query) = split_target(&target);
-    let upload = path.starts_with("/api/upload");
+    let mut request = Request {
+        method: parts.method.as_str().to_string(),
+        path,
+        query,
+        headers: parts.headers,
+        body: Bytes::new(),
+    };
+    if let Err(refused) = shared.service.admit(&request) {
+        return refused;
+    }
+    let upload = request.segments() == ["api", "upload"];
     let limit = if upload {
         shared.limits.max_upload
     } else {
@@ -388,21 +416,15 @@ async fn answer(req: hyper::Request<Incoming>, shared: &Shared) -> Response {
         Ok(Err(_)) => return Response::error(400, "the request body ended early or is malformed"),
         Ok(Ok(collected)) => collected.to_bytes(),
     };
-    let request = Request {
-        method: parts.method.as_str().to_string(),
-        path,
-        query,
-        headers: parts.headers,
-        body,
-    };
+    request.body = body;
     let Ok(Ok(permit)) =
         tokio::time::timeout(HANDLER_WAIT, shared.handlers.clone().acquire_owned()).await
     else {
         return Response::error(503, "the server is busy; try again in a moment");
     };
-    let handle = shared.handle.clone();
+    let service = shared.service.clone();
     tokio::task::spawn_blocking(move || {
-        let response = handle(request);
+        let response = service.handle(request);
         drop(lease);
         drop(permit);
         response

@@ -171,14 +171,8 @@ impl Server {
             pool,
             access,
         });
-        let handler_app = app.clone();
-        let listener = Listener::start(
-            socket,
-            limits,
-            budget,
-            Arc::new(move |req| handler_app.handle(&req)),
-        )
-        .map_err(ServeError::io("starting the HTTP server"))?;
+        let listener = Listener::start(socket, limits, budget, app.clone())
+            .map_err(ServeError::io("starting the HTTP server"))?;
         Ok(Self { listener, app })
     }
 
