@@ -4,9 +4,12 @@
 //! hyper reads and checks requests (methods, versions, `Content-Length` and chunked bodies,
 //! conflicting lengths refused, `HEAD` answered without a body) and writes responses; this
 //! module adds the limits:
-//! - connections: at most [`HttpLimits::connections`] open; beyond, a connection is answered
-//!   `503` by a task of its own (at most [`REFUSERS`] at once, further ones are closed), so the
-//!   accept loop never waits on a client;
+//! - connections: until its request head has arrived and passed [`Service::admit`], a connection
+//!   is *waiting*: at most [`HttpLimits::waiting`] wait, and a new connection beyond closes the
+//!   oldest waiting one, so clients that never finish their head cannot keep out one that sends
+//!   it at once (to push it out they must open that many connections in the moment its head
+//!   takes to arrive). An admitted connection holds one of [`HttpLimits::connections`] slots
+//!   until it ends; beyond, it is answered `503`. The accept loop never waits on a client;
 //! - time: the request head must arrive within [`HEADER_DEADLINE`], the body within
 //!   [`BODY_DEADLINE`], the whole exchange within [`CONNECTION_DEADLINE`]; a slow or idle client
 //!   costs a task and a socket until then, never a handler thread;
@@ -21,9 +24,10 @@
 //!
 //! Every answer closes its connection (`Connection: close`).
 
+use std::collections::BTreeMap;
 use std::convert::Infallible;
 use std::net::{SocketAddr, TcpListener};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
@@ -35,8 +39,8 @@ use hyper::server::conn::http1;
 use hyper::service::service_fn;
 use hyper_util::rt::{TokioIo, TokioTimer};
 use serde_json::json;
-use tokio::io::AsyncWriteExt;
-use tokio::sync::{Notify, Semaphore};
+use tokio::sync::{Notify, OwnedSemaphorePermit, Semaphore};
+use tokio::task::AbortHandle;
 
 use crate::budget::{Budget, Lease};
 
@@ -50,10 +54,6 @@ pub const BODY_DEADLINE: Duration = Duration::from_secs(60);
 pub const CONNECTION_DEADLINE: Duration = Duration::from_secs(180);
 /// How long a request waits for a free handler before it is answered `503`.
 pub const HANDLER_WAIT: Duration = Duration::from_secs(10);
-/// Connections being refused with `503` at once; beyond, they are closed unanswered.
-pub const REFUSERS: usize = 64;
-/// How long writing a refusal may take.
-const REFUSAL_DEADLINE: Duration = Duration::from_secs(2);
 
 /// A request as the routes see it.
 #[derive(Debug)]
@@ -201,8 +201,10 @@ pub fn split_target(target: &str) -> (String, Vec<(String, String)>) {
 pub struct HttpLimits {
     /// Handler threads.
     pub handlers: usize,
-    /// Open connections; beyond, new ones are answered `503`.
+    /// Admitted connections open at once; beyond, a request is answered `503`.
     pub connections: usize,
+    /// Connections whose request head has not arrived or not been admitted yet.
+    pub waiting: usize,
     /// Largest upload body, bytes.
     pub max_upload: u64,
     /// Largest other body, bytes.
@@ -225,6 +227,29 @@ struct Shared {
     service: Arc<dyn Service>,
     handlers: Arc<Semaphore>,
     budget: Arc<Budget>,
+    /// Slots of admitted connections.
+    admitted: Arc<Semaphore>,
+    /// Waiting connections by id (ids grow: the first is the oldest), to close to make room.
+    waiting: Mutex<BTreeMap<u64, AbortHandle>>,
+}
+
+impl Shared {
+    fn waiting(&self) -> MutexGuard<'_, BTreeMap<u64, AbortHandle>> {
+        self.waiting.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+}
+
+/// Takes a connection off the waiting ones when it is admitted or ends (however it ends: its
+/// task dropped by a deadline or closed to make room).
+struct NoLongerWaiting {
+    shared: Arc<Shared>,
+    id: u64,
+}
+
+impl Drop for NoLongerWaiting {
+    fn drop(&mut self) {
+        self.shared.waiting().remove(&self.id);
+    }
 }
 
 /// A running listener: it stops when [`Listener::stop`] is called.
@@ -256,6 +281,8 @@ impl Listener {
             service,
             handlers: Arc::new(Semaphore::new(limits.handlers.max(1))),
             budget,
+            admitted: Arc::new(Semaphore::new(limits.connections.max(1))),
+            waiting: Mutex::new(BTreeMap::new()),
         });
         let stop_flag = stop.clone();
         let thread = std::thread::Builder::new()
@@ -295,54 +322,51 @@ impl Listener {
 }
 
 async fn accept_loop(listener: tokio::net::TcpListener, shared: Arc<Shared>) {
-    let connections = Arc::new(Semaphore::new(shared.limits.connections.max(1)));
-    let refusers = Arc::new(Semaphore::new(REFUSERS));
+    let mut next_id: u64 = 0;
     loop {
         let Ok((stream, _)) = listener.accept().await else {
             // Out of descriptors or a connection reset while queued: let a moment pass.
             tokio::time::sleep(Duration::from_millis(50)).await;
             continue;
         };
-        match connections.clone().try_acquire_owned() {
-            Ok(permit) => {
-                let shared = shared.clone();
-                tokio::spawn(async move {
-                    serve_connection(stream, shared).await;
-                    drop(permit);
-                });
-            }
-            Err(_) => {
-                if let Ok(permit) = refusers.clone().try_acquire_owned() {
-                    tokio::spawn(async move {
-                        refuse(stream).await;
-                        drop(permit);
-                    });
+        next_id += 1;
+        let task = tokio::spawn(serve_connection(stream, shared.clone(), next_id));
+        let closed: Vec<AbortHandle> = {
+            let mut waiting = shared.waiting();
+            let mut closed = Vec::new();
+            while waiting.len() >= shared.limits.waiting.max(1) {
+                match waiting.pop_first() {
+                    Some((_, oldest)) => closed.push(oldest),
+                    None => break,
                 }
             }
+            // The task has not run yet (this runtime has one thread and the loop has not
+            // yielded since the spawn), so it cannot have left the waiting ones already.
+            waiting.insert(next_id, task.abort_handle());
+            closed
+        };
+        // Outside the lock: a task's end takes the lock (`NoLongerWaiting`).
+        for task in closed {
+            task.abort();
         }
     }
 }
 
-/// Answers `503` to a connection over the limit, without reading its request.
-async fn refuse(mut stream: tokio::net::TcpStream) {
-    let body = json!({ "error": "the server is busy; try again in a moment" }).to_string();
-    let answer = format!(
-        "HTTP/1.1 503 Service Unavailable\r\ncontent-type: application/json\r\n\
-         content-length: {}\r\nconnection: close\r\ncache-control: no-store\r\n\r\n{body}",
-        body.len()
-    );
-    let _ = tokio::time::timeout(REFUSAL_DEADLINE, async {
-        stream.write_all(answer.as_bytes()).await?;
-        stream.shutdown().await
-    })
-    .await;
-}
-
-async fn serve_connection(stream: tokio::net::TcpStream, shared: Arc<Shared>) {
+async fn serve_connection(stream: tokio::net::TcpStream, shared: Arc<Shared>, id: u64) {
     let _ = stream.set_nodelay(true);
+    let waiting = Arc::new(Mutex::new(Some(NoLongerWaiting {
+        shared: shared.clone(),
+        id,
+    })));
+    // The admitted connection's slot, held until the connection ends (the service, which owns
+    // it, is dropped with the connection).
+    let slot: Arc<Mutex<Option<OwnedSemaphorePermit>>> = Arc::default();
     let service = service_fn(move |req| {
-        let shared = shared.clone();
-        async move { Ok::<_, Infallible>(answer(req, &shared).await.into_hyper()) }
+        let (shared, waiting, slot) = (shared.clone(), waiting.clone(), slot.clone());
+        async move {
+            let response = answer(req, &shared, &waiting, &slot).await;
+            Ok::<_, Infallible>(response.into_hyper())
+        }
     });
     let mut builder = http1::Builder::new();
     builder
@@ -356,8 +380,17 @@ async fn serve_connection(stream: tokio::net::TcpStream, shared: Arc<Shared>) {
     let _ = tokio::time::timeout(CONNECTION_DEADLINE, connection).await;
 }
 
+fn take<T>(m: &Mutex<Option<T>>) -> Option<T> {
+    m.lock().unwrap_or_else(PoisonError::into_inner).take()
+}
+
 /// Reads the body within its limits and deadline, then runs the handler on a handler thread.
-async fn answer(req: hyper::Request<Incoming>, shared: &Shared) -> Response {
+async fn answer(
+    req: hyper::Request<Incoming>,
+    shared: &Shared,
+    waiting: &Mutex<Option<NoLongerWaiting>>,
+    slot: &Mutex<Option<OwnedSemaphorePermit>>,
+) -> Response {
     let (parts, body) = req.into_parts();
     let target = parts
         .uri
@@ -373,6 +406,12 @@ async fn answer(req: hyper::Request<Incoming>, shared: &Shared) -> Response {
     };
     if let Err(refused) = shared.service.admit(&request) {
         return refused;
+    }
+    // Admitted: no longer closed to make room, and counted among the admitted.
+    drop(take(waiting));
+    match shared.admitted.clone().try_acquire_owned() {
+        Ok(permit) => *slot.lock().unwrap_or_else(PoisonError::into_inner) = Some(permit),
+        Err(_) => return Response::error(503, "the server is busy; try again in a moment"),
     }
     let upload = request.segments() == ["api", "upload"];
     let limit = if upload {

@@ -63,9 +63,12 @@ pub const DEFAULT_QUEUE: usize = 32;
 pub const DEFAULT_MEMORY_BYTES: u64 = 1536 * 1024 * 1024;
 /// HTTP handler threads.
 pub const HTTP_HANDLERS: usize = 8;
-/// Open connections before new ones are answered `503` (a slow one costs a task and a socket,
-/// not a thread).
+/// Admitted connections (their request head passed the guard) open at once; beyond, a request
+/// is answered `503` (a slow one costs a task and a socket, not a thread).
 pub const HTTP_CONNECTIONS: usize = 256;
+/// Connections whose request head has not arrived or not passed the guard; a new one beyond
+/// closes the oldest of them (each holds at most a 16 KiB head: 4 MiB in all).
+pub const HTTP_WAITING: usize = 256;
 /// Largest body of a request other than an upload (a render request is a few hundred bytes).
 const SMALL_BODY: u64 = 64 * 1024;
 
@@ -156,6 +159,7 @@ impl Server {
         let limits = HttpLimits {
             handlers: HTTP_HANDLERS,
             connections: HTTP_CONNECTIONS,
+            waiting: HTTP_WAITING,
             max_upload: config.max_upload_bytes,
             small_body: SMALL_BODY,
         };

@@ -6,6 +6,8 @@ use std::io::{Read, Write};
 use std::net::{IpAddr, Ipv4Addr, SocketAddr, TcpStream};
 use std::time::Duration;
 
+use uwnr_serve::{HTTP_CONNECTIONS, HTTP_WAITING};
+
 use crate::common::{Fixture, png_bytes, with_headers};
 
 /// A server beyond loopback (a token is asked), changed by `change`; the loopback address to
@@ -129,4 +131,20 @@ fn uploads_the_guard_refuses_take_no_memory_from_the_token_holder() {
     wait_for("the flood is answered", || flood.poll() == 6);
     assert_eq!(flood.statuses(), vec![403; 6]);
     assert_eq!(budget.used(), 0);
+}
+
+#[test]
+fn clients_that_never_finish_their_head_do_not_lock_out_the_token_holder() {
+    let (_f, addr, auth) = token_server(|_| {});
+    // More connections than the server holds, each sending part of a head and no token.
+    let extra = 14;
+    let held = HTTP_CONNECTIONS.max(HTTP_WAITING);
+    let mut idle = Clients::open(addr, held + extra, |_| {
+        "GET /api/info HTTP/1.1\r\nHo".to_string()
+    });
+    // The server has taken them all in once the ones over its limit are answered or closed.
+    wait_for("the idle connections are taken in", || idle.poll() >= extra);
+    let (status, _, body) = with_headers(addr, "GET", "/api/info", &[&auth], &[]);
+    assert_eq!(status, 200, "{}", String::from_utf8_lossy(&body));
+    drop(idle);
 }
