@@ -104,7 +104,7 @@ impl Access {
         }
         if let Some(site) = req.header("sec-fetch-site")
             && !matches!(site, "same-origin" | "none")
-            && (changes_state || req.path.starts_with("/api/"))
+            && (changes_state || req.segments().first() == Some(&"api"))
         {
             return Err(ServeError::Forbidden(format!(
                 "a {site} request to the API was refused: only this page may use it"
@@ -279,6 +279,18 @@ mod tests {
             ))
             .is_ok()
         );
+    }
+
+    #[test]
+    fn the_api_is_the_same_path_for_the_guard_as_for_the_router() {
+        let a = loopback();
+        let h = ("host", "127.0.0.1:8787");
+        for path in ["/api/info", "//api/info", "///api//info/", "/%2Fapi/info"] {
+            let e = a
+                .check(&req("GET", path, &[h, ("sec-fetch-site", "cross-site")]))
+                .unwrap_err();
+            assert_eq!(e.status(), 403, "{path}");
+        }
     }
 
     #[test]

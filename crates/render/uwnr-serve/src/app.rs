@@ -33,7 +33,7 @@ const WRITE: &str = "POST";
 /// The methods the path `segments` answers (`None`: no such path).
 fn allowed(segments: &[&str]) -> Option<&'static str> {
     Some(match segments {
-        [""] | ["index.html" | "app.js" | "style.css"] => READ,
+        [] | ["index.html" | "app.js" | "style.css"] => READ,
         ["api", "info" | "status" | "references" | "draw"] => READ,
         ["api", "clean" | "reference", "find"] | ["api", "clean", "image" | "depth"] => READ,
         ["api", "reference", _, "thumb"] | ["api", "job", _] | ["api", "job", _, "image"] => READ,
@@ -140,7 +140,7 @@ impl App {
 
     fn route(&self, req: &Request) -> Result<Response> {
         let e = &self.engine;
-        let segments: Vec<&str> = req.path.trim_matches('/').split('/').collect();
+        let segments = req.segments();
         let allow = allowed(&segments)
             .ok_or_else(|| ServeError::Missing(format!("no such page: {}", req.path)))?;
         if !allow.split(", ").any(|m| m == req.method) {
@@ -150,7 +150,7 @@ impl App {
             });
         }
         Ok(match segments.as_slice() {
-            [""] | ["index.html"] => {
+            [] | ["index.html"] => {
                 Response::bytes("text/html; charset=utf-8", INDEX_HTML.as_bytes().to_vec())
             }
             ["app.js"] => {

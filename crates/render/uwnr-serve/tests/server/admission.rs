@@ -148,3 +148,15 @@ fn clients_that_never_finish_their_head_do_not_lock_out_the_token_holder() {
     assert_eq!(status, 200, "{}", String::from_utf8_lossy(&body));
     drop(idle);
 }
+
+#[test]
+fn the_guard_and_the_router_read_the_same_path() {
+    let f = Fixture::new(1 << 20);
+    let addr = f.addr();
+    for path in ["//api/info", "///api/info", "/%2Fapi/info", "//api//info/"] {
+        let (status, _, _) = with_headers(addr, "GET", path, &["Sec-Fetch-Site: cross-site"], &[]);
+        assert_eq!(status, 403, "{path}");
+        let (status, _, _) = with_headers(addr, "GET", path, &["Sec-Fetch-Site: same-origin"], &[]);
+        assert_eq!(status, 200, "{path}");
+    }
+}
