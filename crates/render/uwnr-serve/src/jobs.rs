@@ -1,11 +1,12 @@
 //! The render pool: worker threads fed by a bounded queue of jobs.
 //!
-//! Each job belongs to a *view* (a cell of the page: a method and a reference), and every
-//! submission for a view gets the next generation of that view. A newer submission makes the
-//! older ones stale: a queued stale job is taken off the queue at once (freeing its slot), and a
-//! running one finishes but its result is discarded. A full queue refuses new jobs
-//! ([`ServeError::Busy`], answered `503`). Finished results are kept for the latest jobs only,
-//! within a count and a byte budget, so memory stays bounded however long the server runs.
+//! Each job belongs to a *view* (a cell of the page: a method and a reference). A newer
+//! submission for a view makes its older jobs stale: a queued stale job is taken off the queue at
+//! once (freeing its slot), and a running one finishes but its result is discarded. A full queue
+//! refuses new jobs ([`ServeError::Busy`], answered `503`). Finished results are kept for the
+//! latest jobs only, within a count and a byte budget; a view is remembered only while one of its
+//! jobs waits or runs (at most the queue's capacity plus the workers), so memory stays bounded
+//! however long the server runs and however many views clients name.
 
 use std::collections::{HashMap, VecDeque};
 use std::sync::{Arc, Condvar, Mutex, MutexGuard, PoisonError};
@@ -51,8 +52,8 @@ pub enum State {
 }
 
 struct Job<T> {
+    /// Emptied when the job is finished (the name may be as large as a request body).
     view: String,
-    generation: u64,
     /// Taken by the worker that runs it.
     request: Option<T>,
     state: State,
@@ -62,6 +63,7 @@ struct Inner<T> {
     next_id: u64,
     queue: VecDeque<u64>,
     jobs: HashMap<u64, Job<T>>,
+    /// The newest job of each view that has a job waiting or running (ids grow with time).
     latest: HashMap<String, u64>,
     /// Jobs no longer queued or running, oldest first.
     finished: VecDeque<u64>,
@@ -129,19 +131,17 @@ impl<T: Send + 'static> Pool<T> {
                 capacity: self.capacity,
             });
         }
-        let generation = g.latest.get(view).map_or(1, |v| v + 1);
-        g.latest.insert(view.to_string(), generation);
-        for id in stale {
-            g.queue.retain(|q| *q != id);
-            finish(&mut g, id, State::Stale);
-        }
         let id = g.next_id;
         g.next_id += 1;
+        g.latest.insert(view.to_string(), id);
+        for old in stale {
+            g.queue.retain(|q| *q != old);
+            finish(&mut g, old, State::Stale);
+        }
         g.jobs.insert(
             id,
             Job {
                 view: view.to_string(),
-                generation,
                 request: Some(request),
                 state: State::Queued,
             },
@@ -191,6 +191,11 @@ impl<T: Send + 'static> Pool<T> {
         (g.queue.len(), running, g.finished.len())
     }
 
+    /// Views the pool remembers (what memory the views' names take grows with).
+    pub fn views(&self) -> usize {
+        self.lock().latest.len()
+    }
+
     /// The queue's capacity.
     #[must_use]
     pub fn capacity(&self) -> usize {
@@ -210,7 +215,7 @@ impl<T: Send + 'static> Pool<T> {
 
     fn work(&self, runner: &Runner<T>) {
         loop {
-            let (id, view, generation, request) = {
+            let (id, request) = {
                 let mut g = self.lock();
                 loop {
                     if g.stopping {
@@ -226,7 +231,7 @@ impl<T: Send + 'static> Pool<T> {
                         job.state = State::Running {
                             since: Instant::now(),
                         };
-                        break (id, job.view.clone(), job.generation, request);
+                        break (id, request);
                     }
                     g = self.ready.wait(g).unwrap_or_else(PoisonError::into_inner);
                 }
@@ -240,7 +245,10 @@ impl<T: Send + 'static> Pool<T> {
                     );
             drop(request);
             let mut g = self.lock();
-            let current = g.latest.get(&view) == Some(&generation);
+            let current = g
+                .jobs
+                .get(&id)
+                .is_some_and(|job| g.latest.get(&job.view) == Some(&id));
             let state = match result {
                 _ if !current => State::Stale,
                 Ok(output) => State::Done {
@@ -266,11 +274,16 @@ impl<T> Pool<T> {
     }
 }
 
-/// Records `id`'s final state and evicts the oldest finished jobs beyond the budgets.
+/// Records `id`'s final state, forgets its view when it was the view's newest job, and evicts
+/// the oldest finished jobs beyond the budgets.
 fn finish<T>(g: &mut Inner<T>, id: u64, state: State) {
     if let Some(job) = g.jobs.get_mut(&id) {
         job.state = state;
         job.request = None;
+        let view = std::mem::take(&mut job.view);
+        if g.latest.get(&view) == Some(&id) {
+            g.latest.remove(&view);
+        }
         g.finished.push_back(id);
     }
     let bytes = |g: &Inner<T>| -> usize {
@@ -382,6 +395,32 @@ mod tests {
         wait_until(&pool, good, |s| matches!(s, State::Done { .. }));
         assert_eq!(*pool.output(good).unwrap().png, vec![7]);
         drop(go);
+        pool.stop();
+    }
+
+    #[test]
+    fn views_are_remembered_only_while_a_job_of_theirs_is_waiting_or_running() {
+        let runner: Arc<Runner<u32>> = Arc::new(|v: &u32| {
+            Ok(Output {
+                png: Arc::new(vec![*v as u8]),
+                width: 1,
+                height: 1,
+                params: json!({}),
+            })
+        });
+        let (workers, capacity) = (2, 4);
+        let pool = Pool::start(workers, capacity, runner).unwrap();
+        // Unique view names of 60 kB, as a page (or a client) may send them.
+        let long = "v".repeat(60 * 1024);
+        for i in 0..500_u32 {
+            let id = pool.submit(&format!("{i}-{long}"), i).unwrap();
+            wait_until(&pool, id, |s| matches!(s, State::Done { .. }));
+        }
+        assert!(
+            pool.views() <= capacity + workers,
+            "{} views remembered",
+            pool.views()
+        );
         pool.stop();
     }
 }
