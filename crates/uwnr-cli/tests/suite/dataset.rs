@@ -162,6 +162,19 @@ fn a_run_killed_at_any_moment_resumes_to_the_same_dataset() {
 
 #[test]
 fn shards_merge_into_the_unsharded_dataset() {
+    shards_merge_into_the_unsharded_dataset_with(&["--method", "jerlov"]);
+}
+
+/// The bundled model records its water and strength as floats in every manifest line, which
+/// `merge` reads back and writes again: the merged manifest must keep every digit.
+#[test]
+fn shards_merge_into_the_unsharded_dataset_with_the_bundled_model() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (_, refs) = inputs(tmp.path(), 0, 3);
+    shards_merge_into_the_unsharded_dataset_with(&["--references", s(&refs)]);
+}
+
+fn shards_merge_into_the_unsharded_dataset_with(method: &[&str]) {
     let tmp = tempfile::tempdir().unwrap();
     let (clean, _) = inputs(tmp.path(), 5, 0);
     let run = |out: &Path, shard: Option<&str>| {
@@ -171,13 +184,12 @@ fn shards_merge_into_the_unsharded_dataset() {
             s(&clean),
             "--output",
             s(out),
-            "--method",
-            "jerlov",
             "-k",
             "3",
             "--seed",
             "5",
         ];
+        args.extend(method);
         if let Some(sh) = shard {
             args.extend(["--shard", sh]);
         }
