@@ -7,11 +7,15 @@
 //! symlink in the folder that points elsewhere is listed (its index is the one a dataset gives it)
 //! but never read.
 //!
-//! The check is made again each time a file is read ([`Library::read`], [`read_inside`]): the
-//! file is opened, and the path of the file actually opened (on Linux, what `/proc/self/fd`
-//! says; elsewhere, the resolved path whose device and inode match the opened file's) must lie
-//! under the folder. A file swapped for a symlink after the folder was listed is refused, not
-//! followed.
+//! The check is made again each time a file is read ([`Library::read`], [`read_inside`]). Before
+//! the file is opened, its resolved path must lie under the folder and be a regular file:
+//! opening a FIFO waits for a writer (a handler thread stuck for good), and opening a device can
+//! act on it, so neither is opened. It is then opened without waiting (`O_NONBLOCK`, and
+//! `O_NOCTTY`: a terminal swapped in never becomes the server's), and the file actually opened
+//! must again be a regular file under the folder (on Linux, the path `/proc/self/fd` gives;
+//! elsewhere, the resolved path whose device and inode match the opened file's), so a file
+//! swapped for a symlink or a FIFO after the checks, or after the folder was listed, is refused,
+//! not followed.
 
 use std::fs::File;
 use std::io::Read;
@@ -181,20 +185,36 @@ pub fn read_inside(root: &Path, path: &Path, what: &'static str, shown: &str) ->
         what: format!("{what} image {shown}"),
         reason,
     };
-    let file = File::open(path).map_err(|e| failed(format!("cannot open it: {}", e.kind())))?;
-    let opened =
-        opened_path(&file, path).map_err(|e| failed(format!("cannot tell where it lies: {e}")))?;
-    if !opened.starts_with(root) {
-        return Err(ServeError::OutsideRoot {
-            what,
-            path: shown.to_string(),
-        });
+    let outside = || ServeError::OutsideRoot {
+        what,
+        path: shown.to_string(),
+    };
+    let not_a_file = || failed("not a regular file".into());
+    // Checked before opening: where it resolves to, then what it is.
+    let resolved = path
+        .canonicalize()
+        .map_err(|e| failed(format!("cannot open it: {}", e.kind())))?;
+    if !resolved.starts_with(root) {
+        return Err(outside());
     }
+    let before = std::fs::metadata(&resolved)
+        .map_err(|e| failed(format!("cannot read it: {}", e.kind())))?;
+    if !before.is_file() {
+        return Err(not_a_file());
+    }
+    let file = open_without_waiting(&resolved)
+        .map_err(|e| failed(format!("cannot open it: {}", e.kind())))?;
+    // Checked again on what was opened: the path may have been swapped since.
     let meta = file
         .metadata()
         .map_err(|e| failed(format!("cannot read it: {}", e.kind())))?;
     if !meta.is_file() {
-        return Err(failed("not a file".into()));
+        return Err(not_a_file());
+    }
+    let opened = opened_path(&file, &resolved)
+        .map_err(|e| failed(format!("cannot tell where it lies: {e}")))?;
+    if !opened.starts_with(root) {
+        return Err(outside());
     }
     if meta.len() > MAX_FILE_BYTES {
         return Err(failed(format!(
@@ -207,6 +227,19 @@ pub fn read_inside(root: &Path, path: &Path, what: &'static str, shown: &str) ->
         .read_to_end(&mut bytes)
         .map_err(|e| failed(format!("cannot read it: {}", e.kind())))?;
     Ok(bytes)
+}
+
+/// `path` opened for reading without waiting for a FIFO's writer and without making a terminal
+/// the process's own.
+fn open_without_waiting(path: &Path) -> std::io::Result<File> {
+    let mut options = std::fs::OpenOptions::new();
+    options.read(true);
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::OpenOptionsExt;
+        options.custom_flags(libc::O_NONBLOCK | libc::O_NOCTTY);
+    }
+    options.open(path)
 }
 
 /// Where the file `file`, opened from `path`, really is.
@@ -273,5 +306,44 @@ mod tests {
             e.to_string().contains("a.png") && !e.to_string().contains('/'),
             "{e}"
         );
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_fifo_or_a_device_is_refused_without_being_opened() {
+        let dir = tempfile::tempdir().unwrap();
+        let folder = dir.path().join("clean");
+        std::fs::create_dir(&folder).unwrap();
+        std::fs::write(folder.join("a.png"), b"a").unwrap();
+        std::fs::write(folder.join("b.png"), b"b").unwrap();
+        let lib = Library::open(&folder, "clean").unwrap();
+        let mkfifo = |p: &Path| {
+            let made = std::process::Command::new("mkfifo")
+                .arg(p)
+                .status()
+                .unwrap();
+            assert!(made.success());
+        };
+        // Swapped after listing: a FIFO in the folder, and a symlink to a FIFO outside it
+        // (opening either for reading waits for a writer that never comes).
+        std::fs::remove_file(folder.join("a.png")).unwrap();
+        mkfifo(&folder.join("a.png"));
+        let outside = dir.path().join("fifo.png");
+        mkfifo(&outside);
+        std::fs::remove_file(folder.join("b.png")).unwrap();
+        std::os::unix::fs::symlink(&outside, folder.join("b.png")).unwrap();
+        let (tx, rx) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            let statuses = [0, 1].map(|i| lib.read(i).map_err(|e| (e.status(), e.to_string())));
+            let _ = tx.send(statuses);
+        });
+        // A hang guard, not a timing assertion: the reads answer without waiting on anything.
+        let [inside, behind] = rx
+            .recv_timeout(std::time::Duration::from_secs(30))
+            .expect("a read blocked on a FIFO");
+        let (status, message) = inside.unwrap_err();
+        assert_eq!(status, 500);
+        assert!(message.contains("not a regular file"), "{message}");
+        assert_eq!(behind.unwrap_err().0, 403);
     }
 }
