@@ -36,6 +36,7 @@ import os
 import subprocess
 import sys
 import tempfile
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -67,15 +68,25 @@ def features(session, files: list[Path]) -> np.ndarray:
     return np.stack(out)
 
 
+def sqrtm(m: np.ndarray) -> np.ndarray:
+    """`scipy.linalg.sqrtm(m, disp=False)[0]` as pytorch-fid calls it (SciPy 1.18 drops `disp`)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)
+        try:
+            return scipy.linalg.sqrtm(m, disp=False)[0]
+        except TypeError:
+            return scipy.linalg.sqrtm(m)
+
+
 def fid_pytorch_fid(f1: np.ndarray, f2: np.ndarray, eps: float = 1e-6) -> float:
     """pytorch-fid's `calculate_frechet_distance` on `numpy.mean` / `numpy.cov` statistics."""
     mu1, mu2 = f1.mean(0), f2.mean(0)
     sigma1, sigma2 = np.cov(f1, rowvar=False), np.cov(f2, rowvar=False)
     diff = mu1 - mu2
-    covmean, _ = scipy.linalg.sqrtm(sigma1.dot(sigma2), disp=False)
+    covmean = sqrtm(sigma1.dot(sigma2))
     if not np.isfinite(covmean).all():
         offset = np.eye(sigma1.shape[0]) * eps
-        covmean = scipy.linalg.sqrtm((sigma1 + offset).dot(sigma2 + offset))
+        covmean = sqrtm((sigma1 + offset).dot(sigma2 + offset))
     if np.iscomplexobj(covmean):
         covmean = covmean.real
     return float(diff.dot(diff) + np.trace(sigma1) + np.trace(sigma2) - 2 * np.trace(covmean))
