@@ -4,16 +4,17 @@
 # cores), at --size 256x256 and 512x512, for the default and every other method, with the peak
 # resident memory of each run (GNU time). One run each; prints a Markdown table.
 #
-# Clean images: 12 CBSD68 and 12 Urban100 photos from ../shared/data/inair, 2 renders each
-# (48 pairs a run); references: U45 (references/u45). Run from the repository root on a quiet
+# Clean images: 12 CBSD68 and 12 Urban100 photos from ../shared/data/inair, PER_IMAGE renders each
+# (default 8: 192 pairs a run); references: U45 (references/u45). Run from the repository root on a quiet
 # machine with a release binary:
 #   cargo build --release -p uwnr-cli && bash tools/bench_throughput.sh
-# Settings: BIN (default target/release/uwnr), DATA, METHODS, SIZES.
+# Settings: BIN (default target/release/uwnr), DATA, METHODS, SIZES, PER_IMAGE.
 set -euo pipefail
 DATA=${DATA:-../shared/data}
 BIN=${BIN:-target/release/uwnr}
 METHODS=${METHODS:-uwnr uwgan jerlov uisa seathru reinhard haze}
 SIZES=${SIZES:-256x256 512x512}
+PER_IMAGE=${PER_IMAGE:-8}
 CORES=$(nproc)
 [ -x /usr/bin/time ] || { echo "needs GNU time (/usr/bin/time, Debian's package time)" >&2; exit 1; }
 WORK=$(mktemp -d)
@@ -28,7 +29,7 @@ run() { # method, size, jobs, rayon threads -> "pairs/s peak-MiB"
     local out="$WORK/out-$method-$size-$jobs"
     RAYON_NUM_THREADS=$threads /usr/bin/time -f 'peak_kib=%M' -o "$WORK/time" \
         "$BIN" dataset --clean "$WORK/clean" --references "$REFS" --output "$out" \
-        --per-image 2 --size "$size" --method "$method" --jobs "$jobs" --no-gallery \
+        --per-image "$PER_IMAGE" --size "$size" --method "$method" --jobs "$jobs" --no-gallery \
         >"$WORK/log" 2>&1 || { cat "$WORK/log" >&2; return 1; }
     local rate kib
     rate=$(grep '^dataset:' "$WORK/log" | sed -E 's/.*\(([0-9.]+) pairs\/s\).*/\1/')
