@@ -7,8 +7,10 @@
 #      Debian's slurm-wlm and munge are installed when absent (as root, with apt-get);
 #   2. the job array renders SHARDS shards of a labelled dataset (YOLO labels on every image) into
 #      one shared folder, and the merge-and-verify job is submitted with --dependency=afterok on it;
-#   3. one array task is killed mid-run (`scontrol requeue`: Slurm stops it and queues it again, as
-#      after a lost node); the script checks that its second run kept the pairs already made;
+#   3. a node that dies: one array task is requeued and its uwnr process sent SIGKILL mid-run;
+#      a task that fails: another is cancelled mid-run, which leaves the merge job waiting forever,
+#      and is resubmitted with a new merge job, as the README says; the script checks that both
+#      shards' last runs kept the pairs already made;
 #   4. the same command runs on one machine without --shard, and the merged folder is compared
 #      with it file by file. The last line says whether they are byte-identical; the exit status
 #      is non-zero if they are not, or if any step failed.
@@ -18,7 +20,8 @@
 #
 # Settings (environment): UWNR_BIN; DATA (default ../shared/data: the clean images come from its
 # inair/, the references from references/u45); IMAGES (clean images, default 32); SHARDS (4);
-# PER_IMAGE (2); SIZE (the render size, default 384x384); KILL_TASK (the task killed, default 1);
+# PER_IMAGE (2); SIZE (the render size, default 384x384); KILL_TASK (the task killed, default 1;
+# the next one is cancelled);
 # KEEP=1 keeps the temporary folder. Without the data folder, or without Slurm and no way to
 # install it, the script says why and exits 0 without testing (SLURM_E2E_REQUIRED=1: exit 1).
 set -euo pipefail
@@ -214,34 +217,70 @@ mid=$(sbatch --parsable --dependency=afterok:"$jid" --mem=1G "$ROOT/examples/slu
 say "submitted array job $jid (tasks 0-$((SHARDS - 1))) and merge job $mid (afterok:$jid)"
 
 job_state() { scontrol -o show job "$1" 2>/dev/null | grep -o 'JobState=[A-Z_]*' | head -1 | cut -d= -f2; }
-task_log=$W/jobs/uwnr-dataset-${jid}_${KILL_TASK}.log
-shard_manifest=$OUT/manifest.shard-$KILL_TASK-of-$SHARDS.jsonl
-start=$SECONDS
-while :; do
-    made=0
-    [ -f "$shard_manifest" ] && made=$(wc -l <"$shard_manifest")
-    state=$(job_state "${jid}_${KILL_TASK}")
-    if [ "$made" -ge 2 ]; then
-        [ "$state" = RUNNING ] || die "task $KILL_TASK was $state, not running, after $made pairs: too quick to kill (more IMAGES, or a larger SIZE)"
-        break
-    fi
-    case $state in COMPLETED | FAILED | CANCELLED | TIMEOUT | NODE_FAIL | OUT_OF_MEMORY)
-        die "task $KILL_TASK ended ($state) before it was killed" ;;
-    esac
-    [ $((SECONDS - start)) -lt "$DEADLINE_S" ] || die "task $KILL_TASK made no pairs in ${DEADLINE_S}s (state ${state:-unknown})"
-    sleep 0.1
-done
-# As Slurm does with the tasks of a node that died (dataset.sbatch asks for --requeue): the task is
-# put back in the queue under the same job ID, so the merge job's afterok dependency still holds.
-# Its uwnr process is killed with SIGKILL at once, with no chance to finish the pairs in progress
-# (`scontrol requeue` alone would send SIGTERM first). A task that fails instead (killed with no
-# requeue) breaks afterok for good: merge.sbatch says what to do then.
+
+# Waits until array task $1 runs and has recorded at least 2 pairs; prints that count.
+wait_mid_run() {
+    local t=$1 manifest=$OUT/manifest.shard-$1-of-$SHARDS.jsonl made state start=$SECONDS
+    while :; do
+        made=0
+        [ -f "$manifest" ] && made=$(wc -l <"$manifest")
+        state=$(job_state "${jid}_$t")
+        if [ "$made" -ge 2 ]; then
+            [ "$state" = RUNNING ] || die "task $t was $state, not running, after $made pairs: too quick to kill (more IMAGES, or a larger SIZE)"
+            echo "$made"
+            return
+        fi
+        case $state in COMPLETED | FAILED | CANCELLED | TIMEOUT | NODE_FAIL | OUT_OF_MEMORY)
+            die "task $t ended ($state) before it was killed" ;;
+        esac
+        [ $((SECONDS - start)) -lt "$DEADLINE_S" ] || die "task $t made no pairs in ${DEADLINE_S}s (state ${state:-unknown})"
+        sleep 0.1
+    done
+}
+
+# Checks that the last run in a task's log kept at least $2 pairs; prints that run's first line.
+check_resumed() {
+    local log=$1 made=$2 runs resumed kept
+    runs=$(grep -c 'pairs planned in shard' "$log" || true)
+    [ "$runs" -ge 1 ] || die "$(basename "$log") shows no run"
+    resumed=$(grep 'pairs planned in shard' "$log" | tail -1)
+    kept=$(sed -E 's/.*: ([0-9]+) already done.*/\1/' <<<"$resumed")
+    [ "$kept" -ge "$made" ] 2>/dev/null || die "$(basename "$log"): the shard started over: '$resumed'"
+    echo "$resumed"
+}
+
+# 1. A node dies: Slurm requeues its tasks (dataset.sbatch asks for --requeue). `scontrol requeue`
+# does what Slurm does then: the task goes back in the queue under the same job ID, so the merge
+# job's afterok dependency still holds. Its uwnr process is sent SIGKILL at once, with no chance to
+# finish the pairs in progress, as when the node dies (`scontrol requeue` alone sends SIGTERM first).
+killed=$(wait_mid_run "$KILL_TASK") || die "task $KILL_TASK could not be killed mid-run"
 pid=$(pgrep -f -- "--output $OUT .*--shard $KILL_TASK/$SHARDS" | head -1 || true)
 [ -n "$pid" ] || die "no uwnr process for shard $KILL_TASK/$SHARDS"
 scontrol requeue "${jid}_${KILL_TASK}"
 kill -KILL "$pid" 2>/dev/null || true
-made=$(wc -l <"$shard_manifest")
-say "killed task $KILL_TASK mid-run (requeued, its uwnr process sent SIGKILL) with $made pairs of its shard recorded"
+killed=$(wc -l <"$OUT/manifest.shard-$KILL_TASK-of-$SHARDS.jsonl")
+say "node death: task $KILL_TASK requeued and its uwnr process sent SIGKILL mid-run, with $killed pairs of its shard recorded"
+
+# 2. A task fails for good (here `scancel`; a time limit or memory alike): the merge job can never
+# start. As the README says: run the shard again (it resumes), cancel the stuck merge job and submit
+# it again after the rest of the array has ended and the rerun has succeeded.
+cancel_task=$(( (KILL_TASK + 1) % SHARDS ))
+cancelled=$(wait_mid_run "$cancel_task") || die "task $cancel_task could not be cancelled mid-run"
+scancel "${jid}_${cancel_task}"
+start=$SECONDS
+until [ "$(job_state "${jid}_${cancel_task}")" = CANCELLED ]; do
+    [ $((SECONDS - start)) -lt 60 ] || die "task $cancel_task is $(job_state "${jid}_${cancel_task}") after scancel"
+    sleep 0.1
+done
+cancelled=$(wc -l <"$OUT/manifest.shard-$cancel_task-of-$SHARDS.jsonl")
+until [ "$(squeue -h -j "$mid" -o %r 2>/dev/null)" = DependencyNeverSatisfied ]; do
+    [ $((SECONDS - start)) -lt 60 ] || die "the merge job is $(job_state "$mid") ($(squeue -h -j "$mid" -o %r)), not waiting forever, after a task was cancelled"
+    sleep 0.2
+done
+rid=$(sbatch --parsable --array="$cancel_task" --cpus-per-task=1 --mem=1G "$ROOT/examples/slurm/dataset.sbatch")
+scancel "$mid"
+mid=$(sbatch --parsable --dependency=afterany:"$jid",afterok:"$rid" --mem=1G "$ROOT/examples/slurm/merge.sbatch")
+say "failure: task $cancel_task cancelled mid-run with $cancelled pairs recorded; the merge job waited forever (DependencyNeverSatisfied); shard $cancel_task resubmitted as job $rid, merge as job $mid (afterany:$jid,afterok:$rid)"
 
 start=$SECONDS
 while :; do
@@ -251,23 +290,25 @@ while :; do
     FAILED | CANCELLED | TIMEOUT | NODE_FAIL | OUT_OF_MEMORY) die "the merge job ended $state" ;;
     esac
     reason=$(squeue -h -j "$mid" -o %r 2>/dev/null || true)
-    [ "$reason" = DependencyNeverSatisfied ] && die "the merge job's dependency can never be satisfied: an array task failed"
+    [ "$reason" = DependencyNeverSatisfied ] && die "the merge job's dependency can never be satisfied"
     [ $((SECONDS - start)) -lt "$DEADLINE_S" ] || die "the merge job did not finish in ${DEADLINE_S}s (state ${state:-unknown}, ${reason:-})"
     sleep 0.5
 done
 
-# The killed task ran twice; its second run kept what the first had recorded.
-runs=$(grep -c 'pairs planned in shard' "$task_log" || true)
-[ "$runs" -ge 2 ] || die "task $KILL_TASK's log shows $runs run(s), not a killed run and its restart"
-resumed=$(grep 'pairs planned in shard' "$task_log" | tail -1)
-kept=$(sed -E 's/.*: ([0-9]+) already done.*/\1/' <<<"$resumed")
-[ "$kept" -ge "$made" ] 2>/dev/null || die "task $KILL_TASK started over: '$resumed'"
-restarts=$(grep -o 'restart [0-9]*' "$task_log" | tail -1)
-say "task $KILL_TASK resumed ($restarts): $resumed"
+# Each interrupted shard's last run kept what the interrupted run had recorded.
+task_log=$W/jobs/uwnr-dataset-${jid}_${KILL_TASK}.log
+[ "$(grep -c 'pairs planned in shard' "$task_log")" -ge 2 ] || die "task $KILL_TASK's log shows no restart"
+resumed=$(check_resumed "$task_log" "$killed") || die "task $KILL_TASK did not resume"
+say "task $KILL_TASK resumed ($(grep -o 'restart [0-9]*' "$task_log" | tail -1)): $resumed"
+resumed=$(check_resumed "$W/jobs/uwnr-dataset-${rid}_${cancel_task}.log" "$cancelled") || die "shard $cancel_task did not resume"
+say "shard $cancel_task resumed as job $rid: $resumed"
 for t in $(seq 0 $((SHARDS - 1))); do
     s=$(job_state "${jid}_$t")
-    [ "$s" = COMPLETED ] || die "array task $t is $s"
+    want=COMPLETED
+    [ "$t" = "$cancel_task" ] && want=CANCELLED
+    [ "$s" = "$want" ] || die "array task $t is $s, not $want"
 done
+[ "$(job_state "${rid}_${cancel_task}")" = COMPLETED ] || die "the rerun of shard $cancel_task is $(job_state "${rid}_${cancel_task}")"
 merge_log=$W/jobs/uwnr-merge-$mid.log
 grep -q '^verify: OK' "$merge_log" || die "the merge job's verify did not print OK"
 say "merge job: $(grep -h '^merged\|^merge took\|^verify:' "$merge_log" | paste -sd ';' -)"
@@ -282,7 +323,7 @@ say "single machine: $(grep '^dataset:' "$W/jobs/single.log")"
 files=$(cd "$W/out-single" && find . -type f | wc -l)
 labels=$(find "$W/out-single/labels" -type f 2>/dev/null | wc -l)
 if differences=$(diff -r -q "$W/out-slurm" "$W/out-single" 2>&1); then
-    echo "slurm_e2e: byte-identical: the merged Slurm run ($SHARDS shards, task $KILL_TASK killed and resumed) equals the single-machine run, $files files ($planned pairs, $labels label files), in ${SECONDS} s"
+    echo "slurm_e2e: byte-identical: the merged Slurm run ($SHARDS shards; task $KILL_TASK killed and requeued, task $cancel_task cancelled and resubmitted, both resumed) equals the single-machine run, $files files ($planned pairs, $labels label files), in ${SECONDS} s"
 else
     echo "$differences" | head -20 >&2
     echo "slurm_e2e: DIFFERENT: the merged Slurm run and the single-machine run differ in $(echo "$differences" | wc -l) place(s): $(echo "$differences" | head -3 | paste -sd ';' -)"
