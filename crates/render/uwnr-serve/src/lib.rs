@@ -207,6 +207,13 @@ impl Server {
         &self.app.engine
     }
 
+    /// The engine, shared: for what outlives a borrow of the server (a signal handler that
+    /// removes the dropped images, [`Engine::remove_uploads`]).
+    #[must_use]
+    pub fn shared_engine(&self) -> Arc<Engine> {
+        self.app.engine.clone()
+    }
+
     /// Serves until the process ends.
     pub fn wait(self) {
         self.listener.join();

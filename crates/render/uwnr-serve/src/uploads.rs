@@ -90,6 +90,17 @@ impl Engine {
     }
 }
 
+impl Engine {
+    /// Removes the folder of dropped images before the process ends (a signal handler's job:
+    /// destructors do not run then). Dropped images are written while the uploads' lock is held,
+    /// so this waits for one being written and removes it with the rest; one written after finds
+    /// no folder and fails, so nothing is left behind.
+    pub fn remove_uploads(&self) -> std::io::Result<()> {
+        let _writes = lock(&self.uploads);
+        std::fs::remove_dir_all(self.upload_dir.path())
+    }
+}
+
 /// The folder for dropped images, readable by this user only (0700).
 pub(crate) fn private_dir() -> Result<tempfile::TempDir> {
     let dir = tempfile::Builder::new()

@@ -43,10 +43,10 @@ pub fn run(a: &ServeArgs) -> Result<ExitCode> {
     // The address on stdout, alone on its line, for scripts and tests to read.
     println!("serving on {}", server.url());
     // Ctrl-C, SIGTERM and SIGHUP end the process without running destructors: remove the
-    // dropped images first.
-    let uploads = server.engine().upload_dir().to_path_buf();
+    // dropped images first, after the one being written (if any) and before any other.
+    let engine = server.shared_engine();
     ctrlc::set_handler(move || {
-        let _ = std::fs::remove_dir_all(&uploads);
+        let _ = engine.remove_uploads();
         std::process::exit(130);
     })
     .context("installing the Ctrl-C handler")?;

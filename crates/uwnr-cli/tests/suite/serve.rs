@@ -379,3 +379,65 @@ fn sigterm_removes_the_dropped_images_as_ctrl_c_does() {
     assert!(!exit.success());
     assert_eq!(folders(), Vec::<std::path::PathBuf>::new(), "left behind");
 }
+
+#[test]
+#[cfg(unix)]
+fn sigterm_while_uploads_are_being_written_leaves_nothing_behind() {
+    let dir = tempfile::tempdir().unwrap();
+    let (clean, refs) = sample_folders(dir.path());
+    let tmp = dir.path().join("tmp");
+    std::fs::create_dir(&tmp).unwrap();
+    let mut server = serve_in(&clean, &refs, &[], &tmp);
+    let addr = server.addr;
+    let photo = std::sync::Arc::new(std::fs::read(sample("clean-room.jpg")).unwrap());
+    let stored = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
+    // Uploaders that keep the handler threads writing until the server stops answering 200.
+    let uploaders: Vec<_> = (0..6)
+        .map(|i| {
+            let (photo, stored) = (photo.clone(), stored.clone());
+            std::thread::spawn(move || {
+                for n in 0..10_000 {
+                    let path = format!("/api/upload?kind=clean&name=t{i}-{n}.jpg");
+                    match request(addr, "POST", &path, &photo) {
+                        Ok((200, _)) => {
+                            stored.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+                        }
+                        _ => return,
+                    }
+                }
+            })
+        })
+        .collect();
+    // Hang guard of 120 s while the first uploads are stored (not a timing assertion).
+    for _ in 0..12_000 {
+        if stored.load(std::sync::atomic::Ordering::SeqCst) >= 12 {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    assert!(stored.load(std::sync::atomic::Ordering::SeqCst) >= 12);
+    let killed = Command::new("kill")
+        .args(["-TERM", &server.child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(killed.success());
+    let exit = server.child.wait().unwrap();
+    assert!(!exit.success());
+    for u in uploaders {
+        u.join().unwrap();
+    }
+    let left: Vec<_> = std::fs::read_dir(&tmp)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    let inside: Vec<_> = left
+        .iter()
+        .filter(|p| p.is_dir())
+        .flat_map(|p| {
+            std::fs::read_dir(p)
+                .unwrap()
+                .map(|e| e.unwrap().file_name())
+        })
+        .collect();
+    assert!(left.is_empty(), "left behind: {left:?} holding {inside:?}");
+}
