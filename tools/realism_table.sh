@@ -29,7 +29,8 @@
 #   seed (each Inception pass over 800 images takes minutes on 2 cores).
 #
 # Environment: UWNR_BIN (default target/release/uwnr), REFERENCES, CLEAN, SEEDS (default
-# "0 1 2"), METHODS (default every method of `uwnr dataset --method`), JOBS (uwnr -j).
+# "0 1 2"), METHODS (default every method of `uwnr dataset --method`; scored in this order, all
+# seeds of one method before the next), JOBS (uwnr -j).
 # Finished steps are kept: running the same command again resumes.
 set -euo pipefail
 
@@ -44,7 +45,7 @@ UWNR=${UWNR_BIN:-target/release/uwnr}
 REFERENCES=${REFERENCES:-../shared/data/references}
 CLEAN=${CLEAN:-../shared/data/inair}
 SEEDS=${SEEDS:-"0 1 2"}
-METHODS=${METHODS:-"uwnr reinhard uisa seathru jerlov uwgan haze"}
+METHODS=${METHODS:-"uwnr uwgan seathru uisa reinhard jerlov haze"}
 SIZE=256x256
 JOBS_ARG=()
 [[ -n "${JOBS:-}" ]] && JOBS_ARG=(-j "$JOBS")
@@ -123,8 +124,8 @@ first_seed=${SEEDS%% *}
 first_method=${METHODS%% *}
 score clean "$OUT/renders/$first_method-s$first_seed/clean" "$first_seed"
 score floor "$OUT/crops-a/clean" "$first_seed"
-for s in $SEEDS; do
-    for m in $METHODS; do
+for m in $METHODS; do
+    for s in $SEEDS; do
         score "$m" "$OUT/renders/$m-s$s/underwater" "$s"
     done
 done
@@ -133,8 +134,16 @@ done
 row() { # LABEL NAME [SEEDS]
     local label=$1 name=$2
     local files=()
-    for s in ${3:-$SEEDS}; do files+=("$OUT/scores/$name-s$s"); done
-    jq -rn --arg label "$label" '
+    # A row whose seeds are not all scored yet (an interrupted run) shows those it has.
+    for s in ${3:-$SEEDS}; do
+        [[ -f "$OUT/scores/$name-s$s/fid.json" && -f "$OUT/scores/$name-s$s/fdct.json" ]] && files+=("$OUT/scores/$name-s$s")
+    done
+    if [[ ${#files[@]} -eq 0 ]]; then
+        echo "| $label | not scored | | |"
+        return
+    fi
+    [[ ${#files[@]} -lt $(wc -w <<<"${3:-$SEEDS}") ]] && label="$label (seeds $(for f in "${files[@]}"; do echo -n "${f##*-s} "; done | sed 's/ $//'))"
+    jq -rn --arg title "$label" '
         def r($k): . * $k | round / $k;
         def stats($k): (add / length) as $m
             | if length > 1
@@ -144,7 +153,7 @@ row() { # LABEL NAME [SEEDS]
         | ($all | map(select(.kind == "fid") | .sets.fid) | stats(10)) as $fid
         | ($all | map(select(.kind == "fid") | .sets.kid * 1000) | stats(10)) as $kid
         | ($all | map(select(.kind == "fdct") | .sets.fd_ct) | stats(100)) as $fd
-        | "| \($label) | \($fid) | \($kid) | \($fd) |"' \
+        | "| \($title) | \($fid) | \($kid) | \($fd) |"' \
         < <(for f in "${files[@]}"; do jq -c '. + {kind: "fid"}' "$f/fid.json"; jq -c '. + {kind: "fdct"}' "$f/fdct.json"; done)
 }
 n_clean=$(find "$OUT/renders/$first_method-s$first_seed/underwater" -type f | wc -l)
