@@ -22,6 +22,16 @@ const state = {
   cells: {},           // key -> {el, job, request, response}
 };
 
+// The token of a server that asks for one (it is in the address `uwnr serve` printed): added to
+// every request this page makes, never kept in a cookie (a browser sends a host's cookies to
+// every port of it, so other servers on the machine would receive the token).
+const TOKEN = new URLSearchParams(location.search).get("token");
+
+function withToken(url) {
+  if (!TOKEN) return url;
+  return `${url}${url.includes("?") ? "&" : "?"}token=${encodeURIComponent(TOKEN)}`;
+}
+
 function showMessage(text) {
   const m = $("message");
   if (!text) { m.hidden = true; m.textContent = ""; return; }
@@ -30,7 +40,7 @@ function showMessage(text) {
 }
 
 async function api(path, init) {
-  const r = await fetch(path, init);
+  const r = await fetch(withToken(path), init);
   const type = r.headers.get("Content-Type") || "";
   const body = type.startsWith("application/json") ? await r.json() : null;
   if (!r.ok) {
@@ -163,7 +173,7 @@ function buildGrid() {
 }
 
 function cleanUrl() {
-  return `/api/clean/image?clean=${encodeURIComponent(state.clean)}`;
+  return withToken(`/api/clean/image?clean=${encodeURIComponent(state.clean)}`);
 }
 
 function applySplit() {
@@ -242,7 +252,7 @@ async function renderCell(key) {
   if (status.state === "done") {
     const img = cell.el.querySelector(".render");
     img.onload = () => { if (cell.token === token) setCellState(cell, "done", `${status.width}x${status.height}, ${status.millis} ms`); };
-    img.src = `/api/job/${answer.job}/image`;
+    img.src = withToken(`/api/job/${answer.job}/image`);
     cell.el.dataset.job = String(answer.job);
   } else if (status.state === "failed") {
     setCellState(cell, "failed", status.error);
@@ -306,7 +316,7 @@ async function download(key) {
     if (status.state !== "done") throw new Error(status.error || status.state);
     const name = answer.render_command.split(" ").pop().replace(/'/g, "");
     const a = document.createElement("a");
-    a.href = `/api/job/${answer.job}/image?download=${encodeURIComponent(name)}`;
+    a.href = withToken(`/api/job/${answer.job}/image?download=${encodeURIComponent(name)}`);
     a.download = name;
     document.body.appendChild(a);
     a.click();
@@ -340,7 +350,7 @@ function loadClean() {
 
 function loadDepth() {
   const img = $("depth-img");
-  const url = `/api/clean/depth?clean=${encodeURIComponent(state.clean)}&depth=${encodeURIComponent(state.depth)}`;
+  const url = withToken(`/api/clean/depth?clean=${encodeURIComponent(state.clean)}&depth=${encodeURIComponent(state.depth)}`);
   fetch(url).then(async (r) => {
     if (!r.ok) { const b = await r.json(); showMessage(`depth: ${b.error}`); img.removeAttribute("src"); return; }
     showMessage("");
@@ -367,7 +377,7 @@ function fillCleanSelect(selected) {
 }
 
 async function upload(file, kind) {
-  const r = await fetch(`/api/upload?kind=${kind}&name=${encodeURIComponent(file.name)}`, { method: "POST", body: file });
+  const r = await fetch(withToken(`/api/upload?kind=${kind}&name=${encodeURIComponent(file.name)}`), { method: "POST", body: file });
   const b = await r.json();
   if (!r.ok) throw new Error(b.error);
   return b;
@@ -407,7 +417,7 @@ async function loadReferences() {
       d.style.minHeight = "60px";
     } else {
       d.innerHTML = `<img alt=""><span class="sw mean"></span><span class="sw veil"></span>`;
-      d.querySelector("img").src = `/api/reference/${item.index}/thumb`;
+      d.querySelector("img").src = withToken(`/api/reference/${item.index}/thumb`);
       d.querySelector(".mean").style.background = rgb(item.mean);
       d.querySelector(".veil").style.background = rgb(item.veil);
       d.title = `${item.rel}\nmean colour ${item.mean.map((v) => v.toFixed(2)).join(", ")} (square)\nveiling light ${item.veil.map((v) => v.toFixed(2)).join(", ")} (circle)`;

@@ -12,10 +12,13 @@
 //!   the browser says it comes from another site (`Sec-Fetch-Site` other than `same-origin` or
 //!   `none`) and asks for the API; a page of another site may still link to the page itself.
 //! - **Token** (other people on the network): when the server listens beyond loopback, every
-//!   request must carry the run's random token: in the printed address (`/?token=...`, after which
-//!   the browser keeps it as an `HttpOnly`, `SameSite=Strict` cookie), a `token=` parameter, or an
-//!   `Authorization: token ...` header. On loopback no token is asked: the Host and Origin checks
-//!   already keep other sites out, and other users of the machine are outside this model.
+//!   request must carry the run's random token, as a `token=` parameter (the printed address
+//!   `/?token=...` has it, and the page adds it to each request it makes) or an
+//!   `Authorization: token ...` header. It is never set as a cookie: a browser sends a host's
+//!   cookies to every port of it, so any other server on the machine would receive it. The
+//!   page's script and style ([`PUBLIC_FILES`]) load without it: they are the same in every copy
+//!   of uwnr and say nothing of this server. On loopback no token is asked: the Host and Origin
+//!   checks already keep other sites out, and other users of the machine are outside this model.
 
 use std::net::IpAddr;
 
@@ -27,11 +30,14 @@ use crate::http::Request;
 /// Bytes of randomness in a token (printed as hex).
 const TOKEN_BYTES: usize = 24;
 
+/// Paths served without the token (still only to allowed hosts): the files the page loads
+/// before its script can add the token to requests, the same in every copy of uwnr.
+pub const PUBLIC_FILES: [&str; 2] = ["app.js", "style.css"];
+
 /// The checks of the module docs.
 #[derive(Clone, Debug)]
 pub struct Access {
     bound: IpAddr,
-    port: u16,
     names: Vec<String>,
     token: Option<String>,
 }
@@ -45,13 +51,12 @@ pub fn new_token() -> String {
 }
 
 impl Access {
-    /// Checks for a server listening on `bound`:`port`, also answering to the host `names`
+    /// Checks for a server listening on `bound`, also answering to the host `names`
     /// (`--allow-host`), asking for `token` when given.
     #[must_use]
-    pub fn new(bound: IpAddr, port: u16, names: &[String], token: Option<String>) -> Self {
+    pub fn new(bound: IpAddr, names: &[String], token: Option<String>) -> Self {
         Self {
             bound,
-            port,
             names: names.iter().map(|n| normalise(n)).collect(),
             token,
         }
@@ -61,10 +66,6 @@ impl Access {
     #[must_use]
     pub fn token(&self) -> Option<&str> {
         self.token.as_deref()
-    }
-
-    fn cookie_name(&self) -> String {
-        format!("uwnr-token-{}", self.port)
     }
 
     /// Whether a `Host` name (port and brackets removed, lower case) may be answered.
@@ -79,9 +80,8 @@ impl Access {
         self.names.iter().any(|n| n == name)
     }
 
-    /// Checks `req`; `Some(cookie)` is a `Set-Cookie` value to send back (a valid token came in
-    /// the address).
-    pub fn check(&self, req: &Request) -> Result<Option<String>> {
+    /// Checks `req` (its head: the body is never needed).
+    pub fn check(&self, req: &Request) -> Result<()> {
         let host = req
             .header("host")
             .ok_or_else(|| ServeError::Forbidden("the request has no Host header".into()))?;
@@ -111,31 +111,23 @@ impl Access {
             )));
         }
         let Some(token) = &self.token else {
-            return Ok(None);
+            return Ok(());
         };
-        let cookie = self.cookie_name();
-        let from_cookie = req.header("cookie").and_then(|c| {
-            c.split(';')
-                .filter_map(|kv| kv.trim().split_once('='))
-                .find(|(k, _)| *k == cookie)
-                .map(|(_, v)| v.to_string())
-        });
-        let from_header = req
-            .header("authorization")
-            .and_then(|a| {
-                a.strip_prefix("token ")
-                    .or_else(|| a.strip_prefix("Bearer "))
-            })
-            .map(str::to_string);
-        let from_query = req.param("token").map(str::to_string);
-        let ok = |t: &Option<String>| t.as_deref().is_some_and(|t| same(t, token));
-        if ok(&from_cookie) || ok(&from_header) {
-            return Ok(None);
+        if let [file] = req.segments().as_slice()
+            && PUBLIC_FILES.contains(file)
+        {
+            return Ok(());
         }
-        if ok(&from_query) {
-            return Ok(Some(format!(
-                "{cookie}={token}; Path=/; HttpOnly; SameSite=Strict"
-            )));
+        let from_header = req.header("authorization").and_then(|a| {
+            a.strip_prefix("token ")
+                .or_else(|| a.strip_prefix("Bearer "))
+        });
+        let from_query = req.param("token");
+        if [from_header, from_query]
+            .into_iter()
+            .any(|t| t.is_some_and(|t| same(t, token)))
+        {
+            return Ok(());
         }
         Err(ServeError::Forbidden(
             "this server asks for the token it printed at start: open the address `uwnr serve` \
@@ -188,7 +180,7 @@ mod tests {
     }
 
     fn loopback() -> Access {
-        Access::new(IpAddr::V4(Ipv4Addr::LOCALHOST), 8787, &[], None)
+        Access::new(IpAddr::V4(Ipv4Addr::LOCALHOST), &[], None)
     }
 
     #[test]
@@ -221,12 +213,7 @@ mod tests {
             assert_eq!(e.status(), 403, "{bad}");
         }
         assert!(a.check(&req("GET", "/", &[])).is_err(), "no Host");
-        let named = Access::new(
-            IpAddr::V4(Ipv4Addr::UNSPECIFIED),
-            1,
-            &["Lab-Box".into()],
-            None,
-        );
+        let named = Access::new(IpAddr::V4(Ipv4Addr::UNSPECIFIED), &["Lab-Box".into()], None);
         assert!(named.allows_host("lab-box"));
         assert!(named.allows_host("10.0.0.5"));
         assert!(!named.allows_host("evil.example"));
@@ -294,34 +281,29 @@ mod tests {
     }
 
     #[test]
-    fn a_token_is_asked_and_remembered_in_a_cookie() {
+    fn a_token_is_asked_and_never_set_as_a_cookie() {
         let a = Access::new(
             IpAddr::V4(Ipv4Addr::UNSPECIFIED),
-            8787,
             &[],
             Some("abc123".into()),
         );
         let h = ("host", "10.0.0.5:8787");
         assert_eq!(a.check(&req("GET", "/", &[h])).unwrap_err().status(), 403);
         assert!(a.check(&req("GET", "/?token=abc124", &[h])).is_err());
-        let cookie = a
-            .check(&req("GET", "/?token=abc123", &[h]))
-            .unwrap()
-            .unwrap();
-        assert!(cookie.starts_with("uwnr-token-8787=abc123;"), "{cookie}");
-        assert!(cookie.contains("HttpOnly") && cookie.contains("SameSite=Strict"));
-        let sent = ("cookie", "other=1; uwnr-token-8787=abc123");
-        assert_eq!(a.check(&req("GET", "/api/info", &[h, sent])).unwrap(), None);
+        assert!(a.check(&req("GET", "/?token=abc123", &[h])).is_ok());
+        assert!(a.check(&req("GET", "/api/info?token=abc123", &[h])).is_ok());
         let header = ("authorization", "token abc123");
         assert!(a.check(&req("GET", "/api/info", &[h, header])).is_ok());
+        // A cookie is not a way in: a browser would send it to every port of the host.
+        let cookie = ("cookie", "uwnr-token-8787=abc123; token=abc123");
+        assert!(a.check(&req("GET", "/api/info", &[h, cookie])).is_err());
+        // The page's own script and style load without it, only from allowed hosts.
+        assert!(a.check(&req("GET", "/app.js", &[h])).is_ok());
+        assert!(a.check(&req("GET", "//style.css", &[h])).is_ok());
+        assert!(a.check(&req("GET", "/api/app.js", &[h])).is_err());
         assert!(
-            a.check(&req(
-                "GET",
-                "/api/info",
-                &[h, ("cookie", "uwnr-token-1=abc123")]
-            ))
-            .is_err(),
-            "another server's cookie"
+            a.check(&req("GET", "/app.js", &[("host", "evil.example")]))
+                .is_err()
         );
         assert!(new_token().len() == 2 * TOKEN_BYTES && new_token() != new_token());
     }

@@ -14,8 +14,8 @@ use crate::error::{Result, ServeError};
 use crate::http::{Request, Response, Service};
 use crate::jobs::Pool;
 use crate::view::{
-    CleanSource, DepthChoice, PAGE_METHODS, RenderSize, ViewRequest, command_line, page_spec,
-    reads_reference,
+    CleanSource, DepthChoice, PAGE_METHODS, RenderSize, ViewRequest, command_line, page_policy,
+    page_spec, reads_reference,
 };
 
 /// Largest reference page.
@@ -55,7 +55,6 @@ impl Service for App {
     fn admit(&self, head: &Request) -> std::result::Result<(), Response> {
         self.access
             .check(head)
-            .map(|_| ())
             .map_err(|e| Response::error(e.status(), &e.to_string()))
     }
 
@@ -121,20 +120,15 @@ impl App {
     /// Answers one request: the local-only guard first, then the route; errors become
     /// `{"error": ...}` with their status (`405` with `Allow`).
     pub fn handle(&self, req: &Request) -> Response {
-        let cookie = match self.access.check(req) {
-            Ok(c) => c,
-            Err(e) => return Response::error(e.status(), &e.to_string()),
-        };
-        let response = match self.route(req) {
+        if let Err(e) = self.access.check(req) {
+            return Response::error(e.status(), &e.to_string());
+        }
+        match self.route(req) {
             Ok(r) => r,
             Err(e @ ServeError::MethodNotAllowed { allow, .. }) => {
                 Response::error(e.status(), &e.to_string()).with_header("allow", allow.into())
             }
             Err(e) => Response::error(e.status(), &e.to_string()),
-        };
-        match cookie {
-            Some(c) => response.with_header("set-cookie", c),
-            None => response,
         }
     }
 
@@ -239,6 +233,7 @@ impl App {
                 let view: ViewRequest = serde_json::from_slice(&req.body)
                     .map_err(|x| ServeError::BadRequest(format!("bad render request: {x}")))?;
                 page_spec(&view.options)?;
+                page_policy(&view.options)?;
                 let (render, dataset, notes) = commands(e, &view)?;
                 let id = self.pool.submit(&view.view.clone(), view)?;
                 Response::json(

@@ -31,7 +31,7 @@ use crate::error::{Result, ServeError};
 use crate::jobs::Output;
 use crate::paths::{Library, read_inside};
 use crate::uploads::{Upload, private_dir};
-use crate::view::{CleanSource, DepthChoice, RenderSize, ViewRequest, page_spec};
+use crate::view::{CleanSource, DepthChoice, RenderSize, ViewRequest, page_policy, page_spec};
 
 /// Longer side of reference thumbnails, pixels.
 pub const THUMB_SIDE: usize = 160;
@@ -420,10 +420,7 @@ impl Engine {
     /// Renders a request (what the pool's workers run).
     pub fn render(&self, req: &ViewRequest) -> Result<Output> {
         let spec = page_spec(&req.options)?;
-        let mut policy = DepthPolicy::render();
-        if let Some((a, b)) = req.options.depth_scale {
-            policy.scene_scale_m = (a as f32, b as f32);
-        }
+        let policy = page_policy(&req.options)?;
         let job = self.job(&spec, policy)?;
         // The render's planes are counted before the clean image is decoded.
         let pixels = match req.size {

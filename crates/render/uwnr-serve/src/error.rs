@@ -27,11 +27,15 @@ pub enum ServeError {
         path: PathBuf,
         reason: String,
     },
-    /// A request body larger than allowed.
-    #[error(
-        "the upload is {got} bytes, more than the {max} bytes this server accepts (--max-upload-mb)"
-    )]
-    TooLarge { got: u64, max: u64 },
+    /// A request body larger than allowed; `limit` says which limit (an upload's is
+    /// `--max-upload-mb`, any other body's is fixed).
+    #[error("{what} is {got} bytes, more than the {max} bytes {limit}")]
+    TooLarge {
+        what: &'static str,
+        got: u64,
+        max: u64,
+        limit: &'static str,
+    },
     /// An image sent by the client (a dropped file) that cannot be decoded or exceeds the
     /// limits.
     #[error("{what}: {reason}")]

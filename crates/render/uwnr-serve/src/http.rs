@@ -421,7 +421,7 @@ async fn answer(
     };
     let declared = body.size_hint().exact();
     if declared.is_some_and(|n| n > limit) {
-        return too_large(declared.unwrap_or(limit), limit);
+        return too_large(upload, declared.unwrap_or(limit), limit);
     }
     // An upload's bytes are counted before they are read (the declared length, or the most
     // that may come).
@@ -451,7 +451,7 @@ async fn answer(
                 ),
             );
         }
-        Ok(Err(e)) if e.is::<LengthLimitError>() => return too_large(limit + 1, limit),
+        Ok(Err(e)) if e.is::<LengthLimitError>() => return too_large(upload, limit + 1, limit),
         Ok(Err(_)) => return Response::error(400, "the request body ended early or is malformed"),
         Ok(Ok(collected)) => collected.to_bytes(),
     };
@@ -472,8 +472,23 @@ async fn answer(
     .unwrap_or_else(|_| Response::error(500, "the request's handler failed"))
 }
 
-fn too_large(got: u64, max: u64) -> Response {
-    let e = crate::error::ServeError::TooLarge { got, max };
+/// `413` naming the limit the body is over.
+fn too_large(upload: bool, got: u64, max: u64) -> Response {
+    let e = if upload {
+        crate::error::ServeError::TooLarge {
+            what: "the upload",
+            got,
+            max,
+            limit: "this server accepts (--max-upload-mb)",
+        }
+    } else {
+        crate::error::ServeError::TooLarge {
+            what: "the request body",
+            got,
+            max,
+            limit: "a request other than an upload may send",
+        }
+    };
     Response::error(e.status(), &e.to_string())
 }
 

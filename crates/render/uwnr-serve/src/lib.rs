@@ -147,15 +147,12 @@ impl Server {
         let addr = SocketAddr::new(config.host, config.port);
         let socket =
             TcpListener::bind(addr).map_err(ServeError::io(format!("listening on {addr}")))?;
-        let addr = socket
-            .local_addr()
-            .map_err(ServeError::io("reading the address listened on"))?;
         let token = match (&config.token, config.host.is_loopback()) {
             (Some(t), _) => Some(t.clone()),
             (None, false) => Some(access::new_token()),
             (None, true) => None,
         };
-        let access = Access::new(config.host, addr.port(), &config.allowed_hosts, token);
+        let access = Access::new(config.host, &config.allowed_hosts, token);
         let limits = HttpLimits {
             handlers: HTTP_HANDLERS,
             connections: HTTP_CONNECTIONS,
@@ -186,12 +183,21 @@ impl Server {
         self.listener.addr()
     }
 
-    /// The page's address, with the token when one is asked.
+    /// The page's address, with the token when one is asked. Listening on all interfaces
+    /// (`0.0.0.0`, `::`), it names loopback: a browser cannot open the unspecified address, and
+    /// the address of another interface depends on where the browser is.
     #[must_use]
     pub fn url(&self) -> String {
+        let mut addr = self.addr();
+        if addr.ip().is_unspecified() {
+            addr.set_ip(match addr.ip() {
+                IpAddr::V4(_) => IpAddr::V4(Ipv4Addr::LOCALHOST),
+                IpAddr::V6(_) => IpAddr::V6(std::net::Ipv6Addr::LOCALHOST),
+            });
+        }
         match self.app.access.token() {
-            Some(t) => format!("http://{}/?token={t}", self.addr()),
-            None => format!("http://{}/", self.addr()),
+            Some(t) => format!("http://{addr}/?token={t}"),
+            None => format!("http://{addr}/"),
         }
     }
 

@@ -4,7 +4,7 @@
 
 use serde::{Deserialize, Serialize};
 pub use uwnr_render::MethodOptions;
-use uwnr_render::{MethodKind, MethodSpec, ReferenceUse};
+use uwnr_render::{DepthPolicy, MethodKind, MethodSpec, ReferenceUse};
 
 use crate::error::{Result, ServeError};
 
@@ -94,6 +94,32 @@ pub fn page_spec(o: &MethodOptions) -> Result<MethodSpec> {
         .map_err(|e| ServeError::BadRequest(e.to_string()))
 }
 
+/// Largest scene scale (`--depth-scale`) the page renders, metres. Over it even the clearest
+/// ocean water, Jerlov type I, which keeps 98.2 % of blue light a metre, keeps 1e-8 of the scene:
+/// every method's render is its veiling light alone.
+pub const MAX_DEPTH_SCALE_M: f32 = 1000.0;
+
+/// The depth policy a render of the page's options uses: `uwnr render`'s, with `--depth-scale`
+/// as its scene scale in the `f32` metres renders use, checked there by the check every render
+/// job's policy gets ([`DepthPolicy::validate`]) and within [`MAX_DEPTH_SCALE_M`]. So a range
+/// that only `f64` holds, or past any water, is refused when it is asked for.
+pub fn page_policy(o: &MethodOptions) -> Result<DepthPolicy> {
+    let mut policy = DepthPolicy::render();
+    let Some((a, b)) = o.depth_scale else {
+        return Ok(policy);
+    };
+    // `as` saturates: past f32's range is infinite, which the check refuses.
+    policy.scene_scale_m = (a as f32, b as f32);
+    let bad = |why: String| ServeError::BadRequest(format!("--depth-scale {a},{b}: {why}"));
+    policy.validate().map_err(|e| bad(e.to_string()))?;
+    if policy.scene_scale_m.1 > MAX_DEPTH_SCALE_M {
+        return Err(bad(format!(
+            "at most {MAX_DEPTH_SCALE_M} metres (past it a render is its veiling light alone)"
+        )));
+    }
+    Ok(policy)
+}
+
 /// Whether the render of the page's options reads the reference.
 pub fn reads_reference(o: &MethodOptions) -> Result<bool> {
     Ok(page_spec(o)?.reference_use() != ReferenceUse::Ignored)
@@ -142,6 +168,22 @@ mod tests {
         assert_eq!(e.status(), 400);
         assert!(e.to_string().contains("--water-type does not apply"), "{e}");
         assert!(page_spec(&options(r#"{"method":"uwnr","depth_scale":[0,1]}"#)).is_err());
+    }
+
+    #[test]
+    fn the_scene_scale_is_checked_in_the_f32_metres_renders_use() {
+        let policy = |json: &str| page_policy(&options(json));
+        let p = policy(r#"{"method":"uwnr","depth_scale":[1.5,8]}"#).unwrap();
+        assert_eq!(p.scene_scale_m, (1.5, 8.0));
+        assert_eq!(
+            policy(r#"{"method":"jerlov"}"#).unwrap(),
+            DepthPolicy::render()
+        );
+        for bad in ["[1,1e300]", "[1e30,1e31]", "[1,1001]", "[0,2]", "[3,2]"] {
+            let e = policy(&format!(r#"{{"method":"uwnr","depth_scale":{bad}}}"#)).unwrap_err();
+            assert_eq!(e.status(), 400, "{bad}");
+            assert!(e.to_string().starts_with("--depth-scale "), "{e}");
+        }
     }
 
     #[test]

@@ -40,6 +40,12 @@ pub fn run(a: &ServeArgs) -> Result<ExitCode> {
         refs.len(),
         refs.dir().display()
     );
+    if a.host.is_unspecified() {
+        eprintln!(
+            "listening on all interfaces: the address below is this machine's loopback; from \
+             another machine, put this machine's name or address in its place"
+        );
+    }
     // The address on stdout, alone on its line, for scripts and tests to read.
     println!("serving on {}", server.url());
     // Ctrl-C, SIGTERM and SIGHUP end the process without running destructors: remove the

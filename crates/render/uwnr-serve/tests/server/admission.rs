@@ -160,3 +160,40 @@ fn the_guard_and_the_router_read_the_same_path() {
         assert_eq!(status, 200, "{path}");
     }
 }
+
+#[test]
+fn listening_on_all_interfaces_the_printed_address_opens_here() {
+    let (f, addr, _) = token_server(|_| {});
+    let server = f.server.as_ref().unwrap();
+    let token = server.token().unwrap();
+    // A browser cannot open http://0.0.0.0:PORT/; this machine's loopback it can.
+    assert_eq!(
+        server.url(),
+        format!("http://127.0.0.1:{}/?token={token}", addr.port())
+    );
+}
+
+#[test]
+fn the_token_is_carried_by_the_page_never_set_as_a_cookie() {
+    let (f, addr, _) = token_server(|_| {});
+    let token = f.server.as_ref().unwrap().token().unwrap().to_string();
+    // A browser sends a host's cookies to every port of it: another server on this machine
+    // would receive the token.
+    let (status, head, _) = with_headers(addr, "GET", &format!("/?token={token}"), &[], &[]);
+    assert_eq!(status, 200);
+    assert!(!head.contains("set-cookie"), "{head}");
+    // The page adds the token to its requests instead; its own script and style are the same
+    // in every copy of uwnr and load without it.
+    let (_, _, js) = with_headers(addr, "GET", "/app.js", &[], &[]);
+    assert!(
+        String::from_utf8_lossy(&js).contains("withToken("),
+        "the page sends the token with its requests"
+    );
+    for path in ["/app.js", "/style.css"] {
+        assert_eq!(with_headers(addr, "GET", path, &[], &[]).0, 200, "{path}");
+    }
+    let (status, _, _) = with_headers(addr, "GET", &format!("/api/info?token={token}"), &[], &[]);
+    assert_eq!(status, 200);
+    assert_eq!(with_headers(addr, "GET", "/", &[], &[]).0, 403);
+    assert_eq!(with_headers(addr, "GET", "/api/info", &[], &[]).0, 403);
+}

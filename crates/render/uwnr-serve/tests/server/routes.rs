@@ -219,3 +219,35 @@ fn the_reference_draw_is_the_datasets() {
         .collect();
     assert_eq!(got, want);
 }
+
+#[test]
+fn the_scene_scale_is_checked_in_the_f32_metres_renders_use() {
+    let f = Fixture::new(1 << 20);
+    // A range past f32 (then infinite) or past any water is refused when asked, not failed (or
+    // rendered) later.
+    for range in [json!([1.0, 1e300]), json!([1e30, 1e31]), json!([0.0, 2.0])] {
+        let (status, body) = f.json(
+            "POST",
+            "/api/render",
+            json!({"view": "d", "clean": {"index": 0}, "reference": 0,
+                "options": {"method": "uwnr", "depth_scale": range}})
+            .to_string()
+            .as_bytes(),
+        );
+        assert_eq!(status, 400, "{range}: {body}");
+        let e = body["error"].as_str().unwrap();
+        assert!(e.starts_with("--depth-scale "), "{e}");
+    }
+    let (_, s) = f.render(&json!({"view": "d", "clean": {"index": 0}, "reference": 0,
+        "options": {"method": "jerlov", "depth_scale": [1.5, 8.0]}}));
+    assert_eq!(s["state"], "done", "{s}");
+}
+
+#[test]
+fn a_render_body_over_its_limit_names_that_limit() {
+    let f = Fixture::new(1 << 20);
+    let (status, body) = f.json("POST", "/api/render", &vec![b' '; 66 * 1024]);
+    assert_eq!(status, 413, "{body}");
+    let e = body["error"].as_str().unwrap();
+    assert!(!e.contains("--max-upload-mb") && e.contains("65536"), "{e}");
+}
