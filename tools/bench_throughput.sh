@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Throughput of `uwnr dataset` per method, to size a job array (README, "Beyond one machine"):
+# Throughput of `uwnr dataset` per method, to size a job array (docs/datasets.md, "Beyond one machine"):
 # pairs/s on one core (--jobs 1, RAYON_NUM_THREADS=1) and on every core of the machine (--jobs =
 # cores), at --size 256x256 and 512x512, for the default and every other method, with the peak
 # resident memory of each run (GNU time). One run each; prints a Markdown table.

@@ -33,7 +33,7 @@ for method in ${METHODS:-uwnr uwgan jerlov uisa seathru reinhard haze}; do
     done
     a="$WORK/$method-$format-old" b="$WORK/$method-$format-new"
     # Shards are compared by their members (name, then contents): the tar headers' own bytes
-    # changed with the `tar` crate (README, WebDataset); set RAW_TARS=1 to compare them as bytes.
+    # changed with the `tar` crate (docs/datasets.md, WebDataset); set RAW_TARS=1 to compare them as bytes.
     if [ "$format" = webdataset ] && [ -z "${RAW_TARS:-}" ]; then
       for d in "$a" "$b"; do
         for t in "$d"/webdataset/*.tar; do

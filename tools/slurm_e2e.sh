@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The README's Slurm recipe (examples/slurm/dataset.sbatch and merge.sbatch), run end to end on a
+# The Slurm recipe of docs/datasets.md (examples/slurm/dataset.sbatch and merge.sbatch), run end to end on a
 # real single-node Slurm cluster that this script makes in a temporary folder and takes down again:
 #
 #   1. munged, slurmctld and slurmd start from a slurm.conf of their own (SLURM_CONF), with a
@@ -9,7 +9,7 @@
 #      one shared folder, and the merge-and-verify job is submitted with --dependency=afterok on it;
 #   3. a node that dies: one array task is requeued and its uwnr process sent SIGKILL mid-run;
 #      a task that fails: another is cancelled mid-run, which leaves the merge job waiting forever,
-#      and is resubmitted with a new merge job, as the README says; the script checks that both
+#      and is resubmitted with a new merge job, as docs/datasets.md says; the script checks that both
 #      shards' last runs kept the pairs already made;
 #   4. the same command runs on one machine without --shard, and the merged folder is compared
 #      with it file by file. The last line says whether they are byte-identical; the exit status
@@ -205,7 +205,7 @@ n_refs=$(find "$W/data/refs" -type f | wc -l)
 planned=$((n_images * PER_IMAGE))
 say "$n_images clean images (YOLO labels), $n_refs references, $PER_IMAGE renders each at $SIZE: $planned pairs in $SHARDS shards"
 
-# --- the recipe, as the README gives it -----------------------------------------------------------
+# --- the recipe, as docs/datasets.md gives it ------------------------------------------------------
 export PATH="$(dirname "$bin"):$PATH"
 export CLEAN=$W/data/images REFS=$W/data/refs OUT=$W/out-slurm PER_IMAGE SHARDS
 export UWNR_ARGS="--size $SIZE --seed 7 --yolo $W/data/labels"
@@ -262,7 +262,7 @@ killed=$(wc -l <"$OUT/manifest.shard-$KILL_TASK-of-$SHARDS.jsonl")
 say "node death: task $KILL_TASK requeued and its uwnr process sent SIGKILL mid-run, with $killed pairs of its shard recorded"
 
 # 2. A task fails for good (here `scancel`; a time limit or memory alike): the merge job can never
-# start. As the README says: run the shard again (it resumes), cancel the stuck merge job and submit
+# start. As docs/datasets.md says: run the shard again (it resumes), cancel the stuck merge job and submit
 # it again after the rest of the array has ended and the rerun has succeeded.
 cancel_task=$(( (KILL_TASK + 1) % SHARDS ))
 cancelled=$(wait_mid_run "$cancel_task") || die "task $cancel_task could not be cancelled mid-run"

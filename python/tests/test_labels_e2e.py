@@ -171,8 +171,8 @@ def test_yolo_labels_through_the_cli(labelled, cli, tmp_path):
 
 
 def test_readme_example_with_the_bundled_samples(samples, cli, tmp_path):
-    """The README's labelled example: the bundled COCO file of the sample images, rendered, then
-    loaded with pycocotools."""
+    """The labelled example of docs/datasets.md ("Labels: COCO, YOLO, masks"): the bundled COCO file
+    of the sample images, rendered, then loaded with pycocotools."""
     coco_mod = pytest.importorskip("pycocotools.coco", reason="pycocotools is not installed")
     out = tmp_path / "samples-coco"
     cmd = [

@@ -26,7 +26,7 @@ pub enum Backend {
     Engine,
     /// The engine with the Winograd products in bf16 with f32 sums: faster on CPUs with
     /// AVX512_BF16 (emulated, so no faster, elsewhere), outputs a little off `Engine`'s (see
-    /// the README's bf16 figures).
+    /// the bf16 figures in `docs/speed.md`).
     EngineBf16,
 }
 

@@ -39,7 +39,7 @@ pub enum ConvAlgo {
     Direct,
     /// Winograd F(2x2, 3x3) where `Auto` uses F(4x4, 3x3): transformed weights 16/9 of the
     /// kernel's size instead of 4x, 2.25x fewer multiplies than direct instead of 4x. Slower
-    /// than `Auto` at every size on the machine the engine was tuned on (see the README);
+    /// than `Auto` at every size on the machine the engine was tuned on (see `docs/speed.md`);
     /// kept for comparison elsewhere.
     WinogradF2,
 }
