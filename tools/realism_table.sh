@@ -143,18 +143,26 @@ row() { # LABEL NAME [SEEDS]
         return
     fi
     [[ ${#files[@]} -lt $(wc -w <<<"${3:-$SEEDS}") ]] && label="$label (seeds $(for f in "${files[@]}"; do echo -n "${f##*-s} "; done | sed 's/ $//'))"
-    jq -rn --arg title "$label" '
-        def r($k): . * $k | round / $k;
-        def stats($k): (add / length) as $m
-            | if length > 1
-              then "\($m | r($k)) ± \(((map((. - $m) * (. - $m)) | add) / (length - 1)) | sqrt | r($k))"
-              else "\($m | r($k))" end;
+    # Per quantity "mean std" (std empty for one seed), then fixed decimals.
+    local stats
+    stats=$(jq -rn '
+        def stats: (add / length) as $m
+            | "\($m) \(if length > 1 then ((map((. - $m) * (. - $m)) | add) / (length - 1)) | sqrt else "-" end)";
         [inputs] as $all
-        | ($all | map(select(.kind == "fid") | .sets.fid) | stats(10)) as $fid
-        | ($all | map(select(.kind == "fid") | .sets.kid * 1000) | stats(10)) as $kid
-        | ($all | map(select(.kind == "fdct") | .sets.fd_ct) | stats(100)) as $fd
-        | "| \($title) | \($fid) | \($kid) | \($fd) |"' \
-        < <(for f in "${files[@]}"; do jq -c '. + {kind: "fid"}' "$f/fid.json"; jq -c '. + {kind: "fdct"}' "$f/fdct.json"; done)
+        | [($all | map(select(.kind == "fid") | .sets.fid) | stats),
+           ($all | map(select(.kind == "fid") | .sets.kid * 1000) | stats),
+           ($all | map(select(.kind == "fdct") | .sets.fd_ct) | stats)] | join(" ")' \
+        < <(for f in "${files[@]}"; do jq -c '. + {kind: "fid"}' "$f/fid.json"; jq -c '. + {kind: "fdct"}' "$f/fdct.json"; done))
+    awk -v title="$label" '{
+        cell = "";
+        for (i = 1; i <= 6; i += 2) {
+            d = (i == 5) ? 2 : 1;
+            v = sprintf("%." d "f", $i);
+            if ($(i + 1) != "-") v = v sprintf(" ± %." d "f", $(i + 1));
+            cell = cell " | " v;
+        }
+        print "| " title cell " |";
+    }' <<<"$stats"
 }
 n_clean=$(find "$OUT/renders/$first_method-s$first_seed/underwater" -type f | wc -l)
 n_real=$(find "$REAL" -type f | wc -l)
