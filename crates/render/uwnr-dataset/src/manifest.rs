@@ -12,6 +12,7 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{DatasetError, Result, io_err};
+use crate::labels::info::LabelsInfo;
 use crate::plan::Shard;
 
 mod settings;
@@ -83,7 +84,7 @@ pub struct Record {
     /// The pair's labels: annotations dropped and fingerprints of the files written (absent
     /// without labels, and in folders made before it was recorded).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub labels_info: Option<crate::labels::LabelsInfo>,
+    pub labels_info: Option<LabelsInfo>,
 }
 
 impl Record {

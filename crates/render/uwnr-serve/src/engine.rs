@@ -9,15 +9,17 @@
 //! kept within [`KEPT_REFERENCE_BYTES`], each render job's prepared ones within
 //! [`KEPT_PREPARED_BYTES`].
 
-use std::collections::VecDeque;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, PoisonError};
 use std::time::Duration;
 
+use serde_json::{Value, json};
 use uwnr_baselines::background::SUID_MIN_REGION_FRACTION;
 use uwnr_baselines::{BackgroundPick, quadtree_background};
 use uwnr_core::Image;
-use uwnr_core::io::{DecodeLimits, encode_rgb_png, load_rgb_from_memory, probe_memory};
+use uwnr_core::io::{
+    DecodeLimits, check_decodes, encode_rgb_png, load_rgb_from_memory, probe_memory,
+};
 use uwnr_core::resize::fit_within;
 use uwnr_dataset::DepthPolicy;
 use uwnr_dataset::plan::ReferenceOrder;
@@ -30,7 +32,7 @@ use crate::budget::{Budget, Lease};
 use crate::error::{Result, ServeError};
 use crate::jobs::Output;
 use crate::paths::{Library, read_inside};
-use crate::uploads::{Upload, private_dir};
+use crate::uploads::{Uploads, display_name};
 use crate::view::{CleanSource, DepthChoice, RenderSize, ViewRequest, page_policy, page_spec};
 
 /// Longer side of reference thumbnails, pixels.
@@ -115,8 +117,7 @@ pub struct Engine {
     pub(crate) refs: Library,
     pub(crate) limits: DecodeLimits,
     budget: Arc<Budget>,
-    pub(crate) upload_dir: tempfile::TempDir,
-    pub(crate) uploads: Mutex<(u64, VecDeque<(String, Upload)>)>,
+    uploads: Uploads,
     renderers: Mutex<Lru<String, Arc<Renderer>>>,
     jobs: Mutex<Lru<String, Arc<RenderJob>>>,
     previews: Mutex<Lru<CleanSource, Arc<Image>>>,
@@ -130,7 +131,7 @@ impl Engine {
     pub fn new(config: ServeConfig, budget: Arc<Budget>) -> Result<Self> {
         let cleans = Library::open(&config.clean, "clean")?;
         let refs = Library::open(&config.references, "reference")?;
-        let upload_dir = private_dir()?;
+        let uploads = Uploads::new()?;
         let limits = DecodeLimits {
             max_pixels: config.max_pixels,
             max_dimension: config.max_dimension,
@@ -143,8 +144,7 @@ impl Engine {
             refs,
             limits,
             budget,
-            upload_dir,
-            uploads: Mutex::new((1, VecDeque::new())),
+            uploads,
             renderers: Mutex::new(Lru::new(KEPT_RENDERERS)),
             jobs: Mutex::new(Lru::new(KEPT_JOBS)),
             previews: Mutex::new(Lru::new(KEPT_PREVIEWS)),
@@ -179,7 +179,34 @@ impl Engine {
     /// server is dropped, and by `uwnr serve` on Ctrl-C and SIGTERM).
     #[must_use]
     pub fn upload_dir(&self) -> &Path {
-        self.upload_dir.path()
+        self.uploads.dir()
+    }
+
+    /// Stores a dropped image, readable by this user only, after checking that it decodes
+    /// within the limits (decoded as stored, within the memory budget).
+    pub fn store_upload(&self, bytes: &[u8], name: &str, depth: bool) -> Result<Value> {
+        let name = display_name(name);
+        let bad = |reason: String| ServeError::BadImage {
+            what: name.clone(),
+            reason,
+        };
+        let (w, h, bpp) = probe_memory(bytes).map_err(|e| bad(reason(&e)))?;
+        let pixels = u64::from(w) * u64::from(h);
+        let _lease = if pixels <= self.limits.max_pixels && w.max(h) <= self.limits.max_dimension {
+            Some(self.lease(2 * pixels * bpp, &name, DECODE_WAIT)?)
+        } else {
+            None
+        };
+        let (width, height) = check_decodes(bytes, &self.limits).map_err(|e| bad(reason(&e)))?;
+        let id = self.uploads.keep(bytes, &name, depth)?;
+        Ok(json!({ "id": id, "name": name, "width": width, "height": height }))
+    }
+
+    /// Removes the folder of dropped images before the process ends (a signal handler's job:
+    /// destructors do not run then); a dropped image being written is waited for and removed
+    /// with the rest.
+    pub fn remove_uploads(&self) -> std::io::Result<()> {
+        self.uploads.remove_all()
     }
 
     fn renderer(&self, spec: &MethodSpec) -> Result<Arc<Renderer>> {
@@ -219,7 +246,7 @@ impl Engine {
                 Ok(shown.display().to_string())
             }
             CleanSource::Upload(id) => {
-                let u = self.upload(id)?;
+                let u = self.uploads.get(id)?;
                 if u.depth {
                     return Err(ServeError::BadRequest(format!(
                         "{id} is a depth map, not a photo"
@@ -239,9 +266,9 @@ impl Engine {
             }),
             CleanSource::Upload(id) => {
                 self.clean_name(source)?;
-                let u = self.upload(id)?;
+                let u = self.uploads.get(id)?;
                 Ok(Encoded {
-                    bytes: self.upload_bytes(&u)?,
+                    bytes: u.read()?,
                     what: u.name,
                     theirs: true,
                 })
@@ -321,7 +348,7 @@ impl Engine {
         Ok(match choice {
             DepthChoice::Prior => None,
             DepthChoice::Beside => Some(self.beside(clean)?.2),
-            DepthChoice::Upload(id) => Some(self.upload(id)?.name),
+            DepthChoice::Upload(id) => Some(self.uploads.get(id)?.name),
         })
     }
 
@@ -345,9 +372,9 @@ impl Engine {
                 Ok(Some((encoded, shown)))
             }
             DepthChoice::Upload(id) => {
-                let u = self.upload(id)?;
+                let u = self.uploads.get(id)?;
                 let encoded = Encoded {
-                    bytes: self.upload_bytes(&u)?,
+                    bytes: u.read()?,
                     what: format!("depth map {}", u.name),
                     theirs: true,
                 };

@@ -1,13 +1,11 @@
-//! Images dropped into the page: checked that they decode within the limits and the memory
-//! budget, then kept in the server's private folder (0700, files 0600), the last
-//! [`KEPT_UPLOADS`] of them.
+//! Images dropped into the page, kept in the server's private folder (0700, files 0600), the
+//! last [`KEPT_UPLOADS`] of them. The engine keeps one only once it has checked that it decodes
+//! within the limits and the memory budget ([`crate::Engine::store_upload`]).
 
+use std::collections::VecDeque;
 use std::path::{Path, PathBuf};
+use std::sync::{Mutex, MutexGuard, PoisonError};
 
-use serde_json::{Value, json};
-use uwnr_core::io::{check_decodes, probe_memory};
-
-use crate::engine::{DECODE_WAIT, Engine, lock, reason};
 use crate::error::{Result, ServeError};
 
 /// Dropped images kept on disk (older ones are deleted).
@@ -22,9 +20,44 @@ pub(crate) struct Upload {
     pub depth: bool,
 }
 
-impl Engine {
-    pub(crate) fn upload(&self, id: &str) -> Result<Upload> {
-        lock(&self.uploads)
+impl Upload {
+    /// The dropped file's bytes (a file the server kept: its loss is the server's failure).
+    pub(crate) fn read(&self) -> Result<Vec<u8>> {
+        std::fs::read(&self.path).map_err(|e| ServeError::ServerFile {
+            what: format!("dropped image {}", self.name),
+            reason: format!("the server lost its copy ({}); drop it again", e.kind()),
+        })
+    }
+}
+
+/// The dropped images: the private folder they are kept in, the number of the next one and the
+/// last [`KEPT_UPLOADS`] by id.
+pub(crate) struct Uploads {
+    dir: tempfile::TempDir,
+    kept: Mutex<(u64, VecDeque<(String, Upload)>)>,
+}
+
+impl Uploads {
+    /// No dropped image yet, in a new private folder.
+    pub(crate) fn new() -> Result<Self> {
+        Ok(Self {
+            dir: private_dir()?,
+            kept: Mutex::new((1, VecDeque::new())),
+        })
+    }
+
+    /// The folder dropped images are kept in.
+    pub(crate) fn dir(&self) -> &Path {
+        self.dir.path()
+    }
+
+    fn lock(&self) -> MutexGuard<'_, (u64, VecDeque<(String, Upload)>)> {
+        self.kept.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+
+    /// The dropped image `id`, while it is kept.
+    pub(crate) fn get(&self, id: &str) -> Result<Upload> {
+        self.lock()
             .1
             .iter()
             .find(|(k, _)| k == id)
@@ -36,48 +69,25 @@ impl Engine {
             })
     }
 
-    /// A dropped file's bytes (a file the server kept: its loss is the server's failure).
-    pub(crate) fn upload_bytes(&self, u: &Upload) -> Result<Vec<u8>> {
-        std::fs::read(&u.path).map_err(|e| ServeError::ServerFile {
-            what: format!("dropped image {}", u.name),
-            reason: format!("the server lost its copy ({}); drop it again", e.kind()),
-        })
-    }
-
-    /// Stores a dropped image, readable by this user only, after checking that it decodes
-    /// within the limits (decoded as stored, within the memory budget).
-    pub fn store_upload(&self, bytes: &[u8], name: &str, depth: bool) -> Result<Value> {
-        let name: String = Path::new(name)
-            .file_name()
-            .map(|n| n.to_string_lossy().into_owned())
-            .unwrap_or_else(|| "dropped.png".into());
-        let bad = |reason: String| ServeError::BadImage {
-            what: name.clone(),
-            reason,
-        };
-        let (w, h, bpp) = probe_memory(bytes).map_err(|e| bad(reason(&e)))?;
-        let pixels = u64::from(w) * u64::from(h);
-        let _lease = if pixels <= self.limits.max_pixels && w.max(h) <= self.limits.max_dimension {
-            Some(self.lease(2 * pixels * bpp, &name, DECODE_WAIT)?)
-        } else {
-            None
-        };
-        let (width, height) = check_decodes(bytes, &self.limits).map_err(|e| bad(reason(&e)))?;
-        let mut g = lock(&self.uploads);
+    /// Keeps `bytes` (an image the caller has checked) as a new file readable by this user only,
+    /// under the name `name` ([`display_name`]); deletes the oldest beyond [`KEPT_UPLOADS`].
+    /// Returns the new image's id.
+    pub(crate) fn keep(&self, bytes: &[u8], name: &str, depth: bool) -> Result<String> {
+        let mut g = self.lock();
         let id = format!("u{}", g.0);
         g.0 += 1;
-        let ext = Path::new(&name)
+        let ext = Path::new(name)
             .extension()
             .map(|e| e.to_string_lossy().to_ascii_lowercase())
             .filter(|e| uwnr_core::io::IMAGE_EXTENSIONS.contains(&e.as_str()))
             .unwrap_or_else(|| "png".into());
-        let path = self.upload_dir.path().join(format!("{id}.{ext}"));
+        let path = self.dir.path().join(format!("{id}.{ext}"));
         write_private(&path, bytes).map_err(ServeError::io("saving a dropped image"))?;
         g.1.push_back((
             id.clone(),
             Upload {
                 path,
-                name: name.clone(),
+                name: name.to_owned(),
                 depth,
             },
         ));
@@ -86,19 +96,25 @@ impl Engine {
                 let _ = std::fs::remove_file(old.path);
             }
         }
-        Ok(json!({ "id": id, "name": name, "width": width, "height": height }))
+        Ok(id)
+    }
+
+    /// Removes the folder of dropped images before the process ends (a signal handler's job:
+    /// destructors do not run then). Dropped images are written while the lock is held, so this
+    /// waits for one being written and removes it with the rest; one written after finds no
+    /// folder and fails, so nothing is left behind.
+    pub(crate) fn remove_all(&self) -> std::io::Result<()> {
+        let _writes = self.lock();
+        std::fs::remove_dir_all(self.dir.path())
     }
 }
 
-impl Engine {
-    /// Removes the folder of dropped images before the process ends (a signal handler's job:
-    /// destructors do not run then). Dropped images are written while the uploads' lock is held,
-    /// so this waits for one being written and removes it with the rest; one written after finds
-    /// no folder and fails, so nothing is left behind.
-    pub fn remove_uploads(&self) -> std::io::Result<()> {
-        let _writes = lock(&self.uploads);
-        std::fs::remove_dir_all(self.upload_dir.path())
-    }
+/// The name a dropped file is shown under: its file name, without the folders it came from.
+pub(crate) fn display_name(name: &str) -> String {
+    Path::new(name)
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "dropped.png".into())
 }
 
 /// The folder for dropped images, readable by this user only (0700).

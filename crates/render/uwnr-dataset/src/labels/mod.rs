@@ -11,11 +11,12 @@
 //! A pair's labels are written with its images, before its manifest line, so resume, shards,
 //! `merge` and `verify` treat them as they treat the images. Degenerate and out-of-bounds
 //! geometry follows one rule for every format ([`rules`]); `dataset.json` records a fingerprint
-//! of each clean image's labels, and each manifest line those of the files written
-//! ([`resume`]).
+//! of each clean image's labels ([`resume`]), and each manifest line those of the files written
+//! ([`info`]).
 
 pub mod coco;
 pub mod geometry;
+pub mod info;
 pub mod mask;
 pub mod resume;
 pub mod rle;
@@ -28,7 +29,7 @@ use serde_json::{Value, json};
 use uwnr_core::io::DecodeLimits;
 
 pub use geometry::Fit;
-pub use resume::LabelsInfo;
+pub use info::LabelsInfo;
 pub use rules::{Drop, DropCounts};
 
 use crate::error::{DatasetError, Result, io_err};

@@ -1,24 +1,5 @@
-//! What a pair's manifest line records of its labels: the annotations dropped under the
-//! [`super::rules`] and the fingerprints of the label files written, so that `verify` notices a
-//! label file edited after the pair was made.
-
-use serde::{Deserialize, Serialize};
-
-use super::rules::DropCounts;
-
-/// The `labels_info` of a manifest line.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-pub struct LabelsInfo {
-    /// Annotations dropped, by reason.
-    #[serde(default, skip_serializing_if = "DropCounts::is_empty")]
-    pub dropped: DropCounts,
-    /// Fingerprint of `labels/NAME_k.json|txt` as written.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub labels_fingerprint: Option<String>,
-    /// Fingerprint of `masks/NAME_k.png` as written.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub mask_fingerprint: Option<String>,
-}
+//! Resuming a labelled dataset: the label fingerprints of the settings compared image by image,
+//! so that fixing one label file remakes only that image's pairs.
 
 /// Compares the per-image label fingerprints (`labels.images`, `masks.images`) that `existing`
 /// settings record with those of `requested`: returns `existing` with the requested
