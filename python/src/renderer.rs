@@ -13,9 +13,10 @@ use serde_json::{Map, Value};
 
 use uwnr_core::Image;
 use uwnr_core::lightfield::{LightFieldMap, light_field_with};
-use uwnr_dataset::DepthPolicy;
 use uwnr_model::{GeneratorConfig, ReferenceStyle};
-use uwnr_render::{JobWorker, MethodKind, ReferenceInput, ReferenceUse, RenderError, Renderer};
+use uwnr_render::{
+    DepthPolicy, JobWorker, MethodKind, ReferenceInput, ReferenceUse, RenderError, Renderer,
+};
 
 use crate::convert::{Dtype, PixelView, Pixels, image_bytes};
 use crate::{Failure, compute, model, value};

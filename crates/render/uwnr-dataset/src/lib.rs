@@ -42,7 +42,6 @@ pub use plan::{Shard, Size};
 pub use renderer::Renderer;
 pub use run::{Event, RunOptions, Spec, Summary, calibrates, generate};
 pub use target::{PairWater, StrengthSummary, TargetKind, WaterTarget};
-pub use uwnr_render::depth_policy as depth;
-pub use uwnr_render::{DATASET_PRIOR_TRUST, DATASET_SCENE_SCALE_M, DepthPolicy};
+pub use uwnr_render::{DATASET_PRIOR_TRUST, DATASET_SCENE_SCALE_M};
 pub use verify::{Report, verify};
 pub use webdataset::{ExportReport, export};

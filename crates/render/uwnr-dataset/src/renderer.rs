@@ -45,7 +45,7 @@ mod tests {
             save_depth: false,
             save_lightfield: false,
             depth: uwnr_depth::DepthSource::Builtin,
-            depth_policy: crate::DepthPolicy::default(),
+            depth_policy: uwnr_render::DepthPolicy::default(),
             labels: crate::LabelInputs::default(),
             target: None,
         };

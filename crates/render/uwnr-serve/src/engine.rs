@@ -21,11 +21,10 @@ use uwnr_core::io::{
     DecodeLimits, check_decodes, encode_rgb_png, load_rgb_from_memory, probe_memory,
 };
 use uwnr_core::resize::fit_within;
-use uwnr_dataset::DepthPolicy;
 use uwnr_dataset::plan::ReferenceOrder;
 use uwnr_depth::{Depth, DepthSource, DepthUnit};
 use uwnr_render::lru::Lru;
-use uwnr_render::{MethodSpec, RenderJob, Renderer};
+use uwnr_render::{DepthPolicy, MethodSpec, RenderJob, Renderer};
 
 use crate::ServeConfig;
 use crate::budget::{Budget, Lease};

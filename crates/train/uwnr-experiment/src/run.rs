@@ -64,7 +64,7 @@ pub struct DownstreamSpec {
     /// Depth of the clean images.
     pub depth: DepthSource,
     /// Maps beside the clean images, scene scales, trust in the prior.
-    pub depth_policy: uwnr_dataset::DepthPolicy,
+    pub depth_policy: uwnr_render::DepthPolicy,
     /// Enhancer training (its `epochs` is set per training set from `budget`, its learning-rate
     /// steps from [`LR_DECAYS_PER_RUN`], its seed from `seed`).
     pub train: EnhanceTrainConfig,

@@ -95,7 +95,7 @@ fn make(a: &DatasetMakeArgs) -> Result<ExitCode> {
         depth_policy: super::depth_policy(
             &a.depth,
             a.baseline.depth_scale,
-            uwnr_dataset::DepthPolicy::default(),
+            uwnr_render::DepthPolicy::default(),
         ),
         labels: uwnr_dataset::LabelInputs {
             coco: a.coco.clone(),

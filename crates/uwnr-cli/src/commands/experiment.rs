@@ -83,7 +83,7 @@ fn downstream(a: &DownstreamArgs) -> Result<ExitCode> {
         depth_policy: super::depth_policy(
             &a.depth,
             a.baseline.depth_scale,
-            uwnr_dataset::DepthPolicy::default(),
+            uwnr_render::DepthPolicy::default(),
         ),
         train,
         budget: a.budget,

@@ -142,14 +142,14 @@ pub fn depth_source(o: &DepthOpts) -> Result<DepthSource> {
 
 /// How depth is read and trusted: `--depth-unit` for maps found beside the clean images,
 /// `--depth-scale` for the scene scale of relative maps (uwnr), `--prior-trust`, each with the
-/// command's default (`dataset`: [`uwnr_dataset::DepthPolicy::default`]; `render`:
-/// [`uwnr_dataset::DepthPolicy::render`]).
+/// command's default (`dataset`: [`uwnr_render::DepthPolicy::default`]; `render`:
+/// [`uwnr_render::DepthPolicy::render`]).
 pub fn depth_policy(
     o: &DepthOpts,
     scale: Option<(f64, f64)>,
-    defaults: uwnr_dataset::DepthPolicy,
-) -> uwnr_dataset::DepthPolicy {
-    uwnr_dataset::DepthPolicy {
+    defaults: uwnr_render::DepthPolicy,
+) -> uwnr_render::DepthPolicy {
+    uwnr_render::DepthPolicy {
         unit: o.depth_unit.unwrap_or(defaults.unit),
         scene_scale_m: scale.map_or(defaults.scene_scale_m, |(a, b)| (a as f32, b as f32)),
         prior_trust: o.prior_trust.unwrap_or(defaults.prior_trust),

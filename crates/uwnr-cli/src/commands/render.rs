@@ -88,7 +88,7 @@ pub fn run(a: &RenderArgs) -> Result<ExitCode> {
     let policy = super::depth_policy(
         &a.depth,
         a.baseline.depth_scale,
-        uwnr_dataset::DepthPolicy::render(),
+        uwnr_render::DepthPolicy::render(),
     );
     // Each reference is decoded (and its style computed) once, then reused by every clean image
     // paired with it.

@@ -22,7 +22,7 @@ pub struct Settings {
     pub method_params: serde_json::Value,
     /// The depth source, as `uwnr_depth::DepthSource` serialises it.
     pub depth_source: serde_json::Value,
-    /// How depth is read and trusted (`crate::depth::DepthPolicy`); `null` in datasets made
+    /// How depth is read and trusted (`uwnr_render::DepthPolicy`); `null` in datasets made
     /// before it existed, which a resume therefore refuses to mix with new renders.
     #[serde(default)]
     pub depth_policy: serde_json::Value,

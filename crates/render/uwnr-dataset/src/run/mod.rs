@@ -30,7 +30,6 @@ use uwnr_core::resize::resize_bilinear;
 use uwnr_depth::DepthSource;
 use uwnr_model::ReferenceStyle;
 
-use crate::depth::DepthPolicy;
 use crate::labels::{Fit, LABELS_DIR, LabelInputs, Labels, MASKS_DIR};
 use crate::target::{StrengthSummary, WaterTarget};
 
@@ -45,7 +44,7 @@ use crate::manifest::{
 };
 use crate::plan::{Shard, Size, discover_images};
 use crate::renderer::Renderer;
-use uwnr_render::JobWorker;
+use uwnr_render::{DepthPolicy, JobWorker};
 
 /// What to generate.
 #[derive(Clone, Debug)]

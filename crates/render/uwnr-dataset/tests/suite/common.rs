@@ -66,7 +66,7 @@ pub fn spec(clean: &Path, refs: &Path, k: usize) -> Spec {
         save_depth: true,
         save_lightfield: true,
         depth: DepthSource::Builtin,
-        depth_policy: uwnr_dataset::DepthPolicy::default(),
+        depth_policy: uwnr_render::DepthPolicy::default(),
         labels: uwnr_dataset::LabelInputs::default(),
         target: None,
     }

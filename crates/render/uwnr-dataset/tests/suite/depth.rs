@@ -7,10 +7,11 @@ use std::path::Path;
 
 use uwnr_core::Image;
 use uwnr_core::io::{save_gray16, save_rgb};
-use uwnr_dataset::{DepthPolicy, Renderer, Size};
+use uwnr_dataset::{Renderer, Size};
 use uwnr_depth::DepthUnit;
 use uwnr_model::weights::keys::seeded_tensors;
 use uwnr_model::{Backend, GeneratorConfig, Network, RenderOptions};
+use uwnr_render::DepthPolicy;
 
 use crate::common::{assert_same_tree, opts, run, spec, texture};
 

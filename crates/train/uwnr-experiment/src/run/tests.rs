@@ -11,7 +11,7 @@ fn spec(budget: usize) -> DownstreamSpec {
         size: Size::Native,
         seed: 3,
         depth: DepthSource::default(),
-        depth_policy: uwnr_dataset::DepthPolicy::default(),
+        depth_policy: uwnr_render::DepthPolicy::default(),
         train: EnhanceTrainConfig::default(),
         budget,
         eval_max_side: None,
