@@ -413,7 +413,7 @@ impl NativeRenderer {
             reference: reference.as_ref().map(Bound::get),
             depth: depth.as_ref().map(Pixels::view).transpose()?,
             depth_unit: DepthUnitArg::parse(depth_unit)?,
-            seed: uwnr_baselines::item_seed(seed.unwrap_or(self.seed), index),
+            seed: uwnr_core::seed::item_seed(seed.unwrap_or(self.seed), index),
         };
         let dtype = job.clean.dtype;
         let out = compute(py, || self.render_job(&job))?;
@@ -440,7 +440,7 @@ impl NativeRenderer {
                     reference: reference.as_ref().map(Bound::get),
                     depth: depth.as_ref().map(Pixels::view).transpose()?,
                     depth_unit,
-                    seed: uwnr_baselines::item_seed(seed, i),
+                    seed: uwnr_core::seed::item_seed(seed, i),
                 })
             })
             .collect::<Result<Vec<_>, Failure>>()?;

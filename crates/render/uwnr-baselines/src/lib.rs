@@ -92,18 +92,6 @@ impl Method {
     }
 }
 
-/// The seed of item `index` of a batch rendered with the run's `seed`: the two mixed with
-/// SplitMix64's finaliser, so every image of a batch draws its own parameters and the batch is
-/// reproducible. `uwnr render` and the Python package's `render` / `render_batch` use it, so a
-/// batch gives the same images from either.
-#[must_use]
-pub fn item_seed(seed: u64, index: usize) -> u64 {
-    let mut z = seed ^ (index as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
-}
-
 /// What a baseline renders from.
 #[derive(Clone, Copy, Debug)]
 pub struct RenderInput<'a> {

@@ -82,7 +82,7 @@ impl RenderJob {
     /// The seed of item `index` of a batch (`uwnr render`'s numbering, and Python's).
     #[must_use]
     pub fn item_seed(&self, index: usize) -> u64 {
-        uwnr_baselines::item_seed(self.seed, index)
+        uwnr_core::seed::item_seed(self.seed, index)
     }
 
     /// The reference called `key`, prepared for this job's method; `load` decodes it, the first
@@ -257,7 +257,7 @@ mod tests {
             .unwrap();
         let worker = job.worker().unwrap();
         let seed = job.item_seed(3);
-        assert_eq!(seed, uwnr_baselines::item_seed(7, 3));
+        assert_eq!(seed, uwnr_core::seed::item_seed(7, 3));
         let a = worker
             .render(&clean, &depth, Some(reference.input()), seed)
             .unwrap();

@@ -461,7 +461,7 @@ impl Engine {
         let clean = self.clean_image(&req.clean, req.size)?;
         let depth = self.depth(&clean, &req.clean, &req.depth)?;
         // `uwnr render` with one clean image renders item 0 of its batch.
-        let seed = uwnr_baselines::item_seed(req.options.seed, 0);
+        let seed = uwnr_core::seed::item_seed(req.options.seed, 0);
         let prepared = if job.renderer().uses_reference() {
             let i = req.reference.ok_or_else(|| {
                 ServeError::BadRequest(format!(

@@ -16,15 +16,9 @@ const STREAM_ORDER: u64 = 0x006f_7264_6572;
 /// Stream tag of the per-sample plan ("sample").
 const STREAM_SAMPLE: u64 = 0x7361_6d70_6c65;
 
-/// SplitMix64 finaliser (Steele et al. 2014): mixes a 64-bit word so nearby inputs give
+/// One SplitMix64 step (Steele et al. 2014): mixes a 64-bit word so nearby inputs give
 /// unrelated seeds.
-#[must_use]
-pub fn mix64(mut z: u64) -> u64 {
-    z = z.wrapping_add(0x9e37_79b9_7f4a_7c15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    z ^ (z >> 31)
-}
+pub use uwnr_core::seed::mix as mix64;
 
 /// A generator seeded from `(seed, stream, a, b)`: one independent stream per purpose (`stream`
 /// is a tag such as the ASCII of its name) and per `(a, b)`.

@@ -296,7 +296,7 @@ pub fn seeded_tensors(config: &GeneratorConfig, seed: u64) -> TensorMap {
     let mut state = seed;
     let mut next = move || {
         let z = uwnr_core::seed::mix(state);
-        state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        state = state.wrapping_add(uwnr_core::seed::GAMMA);
         (z >> 40) as f32 / (1u64 << 24) as f32 * 2.0 - 1.0
     };
     let mut map = TensorMap::new();
