@@ -346,6 +346,18 @@ fn concurrent_worst_case_uploads_stay_within_the_memory_budget() {
     );
 }
 
+/// Sends SIGTERM to the server and waits for it: it stops, reporting that it was stopped.
+#[cfg(unix)]
+fn sigterm(child: &mut std::process::Child) {
+    let killed = Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(killed.success());
+    let exit = child.wait().unwrap();
+    assert!(!exit.success());
+}
+
 #[test]
 #[cfg(unix)]
 fn sigterm_removes_the_dropped_images_as_ctrl_c_does() {
@@ -370,13 +382,7 @@ fn sigterm_removes_the_dropped_images_as_ctrl_c_does() {
             .collect()
     };
     assert_eq!(folders().len(), 1, "the server's folder of dropped images");
-    let killed = Command::new("kill")
-        .args(["-TERM", &server.child.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(killed.success());
-    let exit = server.child.wait().unwrap();
-    assert!(!exit.success());
+    sigterm(&mut server.child);
     assert_eq!(folders(), Vec::<std::path::PathBuf>::new(), "left behind");
 }
 
@@ -416,13 +422,7 @@ fn sigterm_while_uploads_are_being_written_leaves_nothing_behind() {
         std::thread::sleep(Duration::from_millis(10));
     }
     assert!(stored.load(std::sync::atomic::Ordering::SeqCst) >= 12);
-    let killed = Command::new("kill")
-        .args(["-TERM", &server.child.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(killed.success());
-    let exit = server.child.wait().unwrap();
-    assert!(!exit.success());
+    sigterm(&mut server.child);
     for u in uploaders {
         u.join().unwrap();
     }
