@@ -28,9 +28,16 @@
 #   clean and floor rows do not depend on the render seed: they are scored once, with the first
 #   seed (each Inception pass over 800 images takes minutes on 2 cores).
 #
+# - Every method's renders go through the camera stage of `uwnr dataset` ($CAMERA, default
+#   `typical`: lens blur, sensor noise, JPEG), so that methods meet the real photos on equal
+#   terms; the clean side and the real photos are not touched.
+#
 # Environment: UWNR_BIN (default target/release/uwnr), REFERENCES, CLEAN, SEEDS (default
-# "0 1 2"), METHODS (default every method of `uwnr dataset --method`; scored in this order, all
-# seeds of one method before the next), JOBS (uwnr -j).
+# "0 1 2"), METHODS (default every method of `uwnr dataset --method` but haze; scored in this
+# order, all seeds of one method before the next; an entry NAME=METHOD,ARG,ARG... renders
+# METHOD with extra arguments under the row NAME, e.g.
+# uwgan-half-a=uwgan,--weights,runs/uwgan-half-a/checkpoints/best/generator.safetensors),
+# CAMERA (uwnr dataset --camera), JOBS (uwnr -j).
 # Finished steps are kept: running the same command again resumes.
 set -euo pipefail
 
@@ -45,7 +52,8 @@ UWNR=${UWNR_BIN:-target/release/uwnr}
 REFERENCES=${REFERENCES:-../shared/data/references}
 CLEAN=${CLEAN:-../shared/data/inair}
 SEEDS=${SEEDS:-"0 1 2"}
-METHODS=${METHODS:-"uwnr uwgan seathru uisa reinhard jerlov haze"}
+METHODS=${METHODS:-"uwnr uwgan seathru revised uisa reinhard jerlov"}
+CAMERA=${CAMERA:-typical}
 SIZE=256x256
 JOBS_ARG=()
 [[ -n "${JOBS:-}" ]] && JOBS_ARG=(-j "$JOBS")
@@ -84,9 +92,13 @@ for half in a b; do
 done
 log "split: $(wc -l <"$OUT/all.txt") files, $(wc -l <"$OUT/copies.txt") byte-identical copies dropped, $(wc -l <"$OUT/half-a.txt") references (half A), $(wc -l <"$OUT/half-b.txt") real photos (half B)"
 
-dataset() { # OUT_SUBDIR CLEAN_DIR METHOD SEED
+dataset() { # OUT_SUBDIR CLEAN_DIR METHOD[,ARG...] SEED
+    local spec method extra=()
+    IFS=, read -r -a spec <<<"$3"
+    method=${spec[0]}
+    extra=("${spec[@]:1}")
     "$UWNR" dataset --clean "$2" --references "$OUT/half-a" -k 1 --size "$SIZE" --seed "$4" \
-        --method "$3" -o "$OUT/$1" --no-gallery "${JOBS_ARG[@]}" >"$OUT/$1.log" 2>&1 ||
+        --method "$method" "${extra[@]}" --camera "$CAMERA" -o "$OUT/$1" --no-gallery "${JOBS_ARG[@]}" >"$OUT/$1.log" 2>&1 ||
         { echo "uwnr dataset failed, see $OUT/$1.log" >&2; exit 1; }
 }
 
@@ -97,12 +109,13 @@ done
 REAL="$OUT/crops-b/clean"
 
 # 3. Renders.
-for m in $METHODS; do
+for entry in $METHODS; do
+    m=${entry%%=*}
     for s in $SEEDS; do
         [[ -f "$OUT/renders/$m-s$s/manifest.jsonl" && -d "$OUT/renders/$m-s$s/underwater" ]] && continue
         log "render $m seed $s"
         mkdir -p "$OUT/renders"
-        dataset "renders/$m-s$s" "$CLEAN" "$m" "$s"
+        dataset "renders/$m-s$s" "$CLEAN" "${entry#*=}" "$s"
     done
 done
 
@@ -122,9 +135,11 @@ score() { # NAME IMAGES SEED
 }
 first_seed=${SEEDS%% *}
 first_method=${METHODS%% *}
+first_method=${first_method%%=*}
 score clean "$OUT/renders/$first_method-s$first_seed/clean" "$first_seed"
 score floor "$OUT/crops-a/clean" "$first_seed"
-for m in $METHODS; do
+for entry in $METHODS; do
+    m=${entry%%=*}
     for s in $SEEDS; do
         score "$m" "$OUT/renders/$m-s$s/underwater" "$s"
     done
@@ -170,9 +185,9 @@ n_real=$(find "$REAL" -type f | wc -l)
     echo "| renders | FID | KID x1000 | FD-ct |"
     echo "|---|---:|---:|---:|"
     row "the clean photos themselves" clean "$first_seed"
-    for m in $METHODS; do row "$m" "$m"; done
+    for entry in $METHODS; do row "${entry%%=*}" "${entry%%=*}"; done
     row "real photos of half A (the floor)" floor "$first_seed"
     echo
-    echo "$n_clean renders per method and seed against $n_real real photos (half B); methods: mean ± std over seeds $SEEDS; clean and floor: seed $first_seed"
+    echo "$n_clean renders per method and seed against $n_real real photos (half B), every method's through the camera stage \`$CAMERA\`; methods: mean ± std over seeds $SEEDS; clean and floor: seed $first_seed"
 } >"$OUT/table.md"
 cat "$OUT/table.md"

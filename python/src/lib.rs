@@ -110,7 +110,7 @@ fn _uwnr(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(metrics::metric, m)?)?;
     m.add_function(wrap_pyfunction!(metrics::load_rgb, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
-    m.add("BUNDLED_MODEL", uwnr_model::bundled_weights().is_some())?;
+    m.add("BUNDLED_MODEL", uwnr_model::bundled_model_bytes().is_some())?;
     m.add("BUNDLED_GAN", uwnr_gan::bundled_gan_weights().is_some())?;
     m.add("DEVICES", uwnr_model::backend_names())?;
     m.add(

@@ -61,9 +61,14 @@ impl NativeReference {
             .map_err(|e| Failure::Model(format!("light field of the reference: {e}")))
     }
 
-    /// What a network with `config` takes of this reference.
+    /// What a model with `config` takes of this reference (the light field only when its
+    /// renders read one).
     fn style(&self, config: &GeneratorConfig) -> Result<ReferenceStyle, Failure> {
-        let light_field = self.field(config.light_field)?.clone();
+        let light_field = if config.reads_light_field() {
+            Some(self.field(config.light_field)?.clone())
+        } else {
+            None
+        };
         let water = match config.variant {
             uwnr_model::Variant::Paper => None,
             uwnr_model::Variant::Anchored => {

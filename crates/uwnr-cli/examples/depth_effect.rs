@@ -131,8 +131,9 @@ fn main() {
         .iter()
         .map(|r| load_rgb(&Path::new(DATA).join(r), &limits).unwrap())
         .collect();
-    let bytes = uwnr_model::bundled_weights().expect("a build with the bundled model");
-    let net = Network::load_from_bytes(bytes, &Backend::Engine).unwrap().0;
+    let net = uwnr_model::bundled_network()
+        .expect("a build with the bundled model")
+        .unwrap();
     let styles: Vec<_> = refs.iter().map(|r| net.style(r).unwrap()).collect();
     let (gan, _, _) = uwnr_gan::generator_or_bundled(None).unwrap();
     let render_uwnr = |clean: &Image, depth: &Depth, r: usize, response: DepthResponse| {

@@ -60,10 +60,9 @@ fn main() {
                 .unwrap()
                 .0
         }
-        None => {
-            let bytes = uwnr_model::bundled_weights().expect("a build with the bundled model");
-            Network::load_from_bytes(bytes, &Backend::Engine).unwrap().0
-        }
+        None => uwnr_model::bundled_network()
+            .expect("a build with the bundled model")
+            .unwrap(),
     };
     let data = PathBuf::from(DATA);
     let samples = PathBuf::from("assets/samples");

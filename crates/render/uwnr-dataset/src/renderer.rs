@@ -48,6 +48,7 @@ mod tests {
             depth_policy: uwnr_render::DepthPolicy::default(),
             labels: crate::LabelInputs::default(),
             target: None,
+            camera: uwnr_render::Camera::NONE,
         };
         let opts = crate::RunOptions {
             shard: None,

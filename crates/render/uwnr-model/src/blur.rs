@@ -42,7 +42,7 @@ pub fn blur_radius(sigma: f64, n: usize) -> usize {
 /// [`BLUR_TRUNCATE_SIGMAS`] sigmas (and at the image size) and renormalised over the part
 /// inside the image at the borders (normalised convolution): a constant plane stays constant.
 /// Rows in parallel. The training wing's tensor blur (`uwnr-train`) is the same operation.
-pub(crate) fn blur_plane(p: &mut [f32], w: usize, h: usize, sigma: f64) {
+pub fn blur_plane(p: &mut [f32], w: usize, h: usize, sigma: f64) {
     let (rx, ry) = (blur_radius(sigma, w), blur_radius(sigma, h));
     let (kx, ky) = (gaussian_kernel(sigma, rx), gaussian_kernel(sigma, ry));
     let (mx, my) = (inside_mass(&kx, w), inside_mass(&ky, h));

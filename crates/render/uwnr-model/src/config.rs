@@ -57,6 +57,32 @@ pub struct GeneratorConfig {
     /// are read as `reinhard`, and `reinhard` is not written, so their configs stay as they were.
     #[serde(default, skip_serializing_if = "AnchorKind::is_reinhard")]
     pub anchor: AnchorKind,
+    /// Whether the anchored variant's correction is a network or none ([`Correction`]); files
+    /// without the field are read as `network`, and `network` is not written, so their configs
+    /// stay as they were.
+    #[serde(default, skip_serializing_if = "Correction::is_network")]
+    pub correction: Correction,
+}
+
+/// What corrects the anchored variant's anchor before the depth stage.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Correction {
+    /// The MHB-Unet: smooth gain and offset fields from the clean image, the reference's light
+    /// field and the anchor (weights needed).
+    #[default]
+    Network,
+    /// None: the anchor goes to the depth stage as it is; no network is loaded or run and no
+    /// light field is computed (the bundled model).
+    None,
+}
+
+impl Correction {
+    /// Whether this is the default, `network`.
+    #[must_use]
+    pub fn is_network(&self) -> bool {
+        *self == Self::Network
+    }
 }
 
 /// What the anchored variant's anchor starts from.
@@ -91,6 +117,7 @@ impl Default for GeneratorConfig {
             variant: Variant::Paper,
             detail_retention: false,
             anchor: AnchorKind::Reinhard,
+            correction: Correction::Network,
         }
     }
 }
@@ -117,7 +144,22 @@ impl GeneratorConfig {
             variant: Variant::Anchored,
             detail_retention: false,
             anchor: AnchorKind::Reinhard,
+            correction: Correction::Network,
         }
+    }
+
+    /// Whether a network runs (weights are needed): every config but an anchored one whose
+    /// correction is none.
+    #[must_use]
+    pub fn runs_network(&self) -> bool {
+        self.variant == Variant::Paper || self.correction == Correction::Network
+    }
+
+    /// Whether renders read the reference's light field: the network's input, or the Reinhard
+    /// anchor's light-field retention.
+    #[must_use]
+    pub fn reads_light_field(&self) -> bool {
+        self.runs_network() || self.anchor == AnchorKind::Reinhard
     }
 
     /// Checks that every width is usable: non-zero channel counts and a base width that is a
@@ -135,6 +177,13 @@ impl GeneratorConfig {
                 field: "anchor",
                 value: 1,
                 reason: "only the anchored variant has an anchor".into(),
+            });
+        }
+        if self.correction == Correction::None && self.variant != Variant::Anchored {
+            return Err(ModelError::InvalidConfig {
+                field: "correction",
+                value: 0,
+                reason: "only the anchored variant can render without a network".into(),
             });
         }
         if self.variant == Variant::Anchored {

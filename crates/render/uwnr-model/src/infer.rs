@@ -164,7 +164,7 @@ pub fn render_with(
     }
     // The light field at the clean image's size, sampled tile by tile as the network needs it
     // rather than held whole (a 12 MP photo would hold 144 MB of it).
-    let lf = LazyResize::new(&style.light_field, w, h)?;
+    let lf = LazyResize::new(light_field_of(style)?, w, h)?;
     for (what, size, channels, expected) in [
         (
             "clean image",
@@ -215,10 +215,9 @@ pub fn render_with(
     }
 }
 
-/// The anchored render of a network whose correction is zero (its output convolution is all
-/// zeros): the anchor through the output stage, without running the network. Equal to
-/// [`render_with`] on such a network up to rounding.
-pub(crate) fn render_anchor_only(
+/// The anchored render of a model whose correction is none: the anchor through the depth
+/// stage, no network.
+pub(crate) fn render_uncorrected(
     clean: &Image,
     depth: &Image,
     style: &ReferenceStyle,
@@ -226,6 +225,17 @@ pub(crate) fn render_anchor_only(
 ) -> Result<Image> {
     let (water, a) = anchored_start(clean, style)?;
     finish_uncorrected(a, depth, water, &opts.depth)
+}
+
+/// The style's light field, which a network and the Reinhard anchor read.
+fn light_field_of(style: &ReferenceStyle) -> Result<&Image> {
+    style.light_field.as_ref().ok_or_else(|| {
+        ModelError::InvalidOptions(
+            "this model reads the reference's light field, and the style has none (made for a \
+             model without a network)"
+                .into(),
+        )
+    })
 }
 
 /// The reference's water and the anchor of `clean` (the water anchor's, or the Reinhard anchor
@@ -240,7 +250,7 @@ fn anchored_start<'s>(clean: &Image, style: &'s ReferenceStyle) -> Result<(&'s W
     let a = if water.affine.is_some() {
         water_anchor(clean, water)?
     } else {
-        let lf_full = resize_bilinear(&style.light_field, w, h)?;
+        let lf_full = resize_bilinear(light_field_of(style)?, w, h)?;
         anchor(clean, water, &lf_full, |im| {
             Ok(light_field_for_with(im, w, h, LightFieldMap::Absolute)?)
         })?

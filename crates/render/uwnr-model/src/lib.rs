@@ -11,6 +11,7 @@
 pub mod blur;
 pub mod bundled;
 pub mod config;
+pub mod effects;
 pub mod error;
 pub mod finish;
 pub mod infer;
@@ -20,8 +21,9 @@ mod variant;
 pub mod water;
 pub mod weights;
 
-pub use bundled::{BUNDLED_MODEL_NAME, bundled_weights};
-pub use config::{AnchorKind, GeneratorConfig, LightFieldMap, gmacs, param_count};
+pub use bundled::{BUNDLED_MODEL_NAME, bundled_config, bundled_model_bytes, bundled_network};
+pub use config::{AnchorKind, Correction, GeneratorConfig, LightFieldMap, gmacs, param_count};
+pub use effects::WaterEffects;
 pub use error::{ModelError, Result};
 pub use finish::{DepthResponse, DepthScale};
 pub use infer::{Forward, RenderOptions};

@@ -10,7 +10,7 @@ use std::sync::Arc;
 use uwnr_core::Image;
 use uwnr_engine::{EngineOptions, Precision};
 
-use crate::config::{GeneratorConfig, Variant};
+use crate::config::GeneratorConfig;
 use crate::error::{ModelError, Result};
 use crate::infer::{Forward, RenderOptions, render_with};
 use crate::style::ReferenceStyle;
@@ -70,27 +70,17 @@ impl Clone for Box<dyn Implementation> {
 enum Imp {
     Engine(Arc<uwnr_engine::Generator>),
     Other(Box<dyn Implementation>),
+    /// No network: the config's correction is none ([`crate::config::Correction::None`]).
+    Uncorrected,
 }
 
-/// A generator with its config, ready to render. Cloning is cheap for the engine (shared,
-/// immutable weights) and copies another implementation's module.
+/// A model with its config, ready to render: a generator (on the engine or another
+/// implementation), or, when the config's correction is none, no network at all. Cloning is
+/// cheap for the engine (shared, immutable weights) and copies another implementation's module.
 #[derive(Clone, Debug)]
 pub struct Network {
     config: GeneratorConfig,
     imp: Imp,
-    /// The anchored network's output convolution is all zeros (weights and biases), so its
-    /// correction is zero whatever the input: rendering skips the network (the bundled v5 model
-    /// ships so; `MODEL_CARD.md` says why).
-    zero_output: bool,
-}
-
-/// Whether the output convolution (`out.0`) of a state dict is all zeros.
-fn output_is_zero(tensors: &TensorMap) -> bool {
-    ["out.0.weight", "out.0.bias"].iter().all(|k| {
-        tensors
-            .get(*k)
-            .is_some_and(|t| t.data.iter().all(|&v| v == 0.0))
-    })
 }
 
 impl Network {
@@ -113,7 +103,13 @@ impl Network {
         tensors: TensorMap,
         backend: &Backend,
     ) -> Result<(Self, Vec<String>)> {
-        let zero_output = config.variant == Variant::Anchored && output_is_zero(&tensors);
+        if !config.runs_network() {
+            return Err(ModelError::InvalidOptions(
+                "the weights' config says its correction is none: such a model has no network \
+                 to load (Network::uncorrected)"
+                    .into(),
+            ));
+        }
         let (weights, ignored) = engine_weights(config, tensors)?;
         let precision = match backend {
             Backend::Engine => Precision::F32,
@@ -129,7 +125,6 @@ impl Network {
             Self {
                 config: *config,
                 imp,
-                zero_output,
             },
             ignored,
         ))
@@ -152,14 +147,28 @@ impl Network {
         Self {
             config: *config,
             imp: Imp::Other(imp),
-            zero_output: false,
         }
     }
 
-    /// Whether the network's correction is zero whatever its input, so renders skip it.
+    /// The model of an anchored `config` whose correction is none: the water, the depth stage,
+    /// no network (nothing to load).
+    pub fn uncorrected(config: &GeneratorConfig) -> Result<Self> {
+        config.validate()?;
+        if config.runs_network() {
+            return Err(ModelError::InvalidOptions(
+                "this config's correction is a network: load its weights".into(),
+            ));
+        }
+        Ok(Self {
+            config: *config,
+            imp: Imp::Uncorrected,
+        })
+    }
+
+    /// Whether a network runs in each render (false when the correction is none).
     #[must_use]
-    pub fn skips_network(&self) -> bool {
-        self.zero_output
+    pub fn runs_network(&self) -> bool {
+        !matches!(self.imp, Imp::Uncorrected)
     }
 
     /// The generator's config.
@@ -184,6 +193,7 @@ impl Network {
             }
             Imp::Engine(_) => ENGINE_NAME.to_string(),
             Imp::Other(imp) => imp.name(),
+            Imp::Uncorrected => "none (no network runs)".to_string(),
         }
     }
 
@@ -198,16 +208,14 @@ impl Network {
         opts: &RenderOptions,
     ) -> Result<Image> {
         let variant = self.config.variant;
-        if self.zero_output {
-            return crate::infer::render_anchor_only(clean, depth, style, opts);
-        }
         match &self.imp {
             Imp::Engine(engine) => render_with(engine.as_ref(), variant, clean, depth, style, opts),
             Imp::Other(imp) => render_with(imp.as_ref(), variant, clean, depth, style, opts),
+            Imp::Uncorrected => crate::infer::render_uncorrected(clean, depth, style, opts),
         }
     }
 
-    /// The style of the underwater image `reference` for this network ([`ReferenceStyle::new`]).
+    /// The style of the underwater image `reference` for this model ([`ReferenceStyle::new`]).
     pub fn style(&self, reference: &Image) -> Result<ReferenceStyle> {
         ReferenceStyle::new(reference, &self.config)
     }

@@ -407,17 +407,23 @@ fn mean_std(p: &[f32]) -> (f64, f64) {
 /// What rendering needs of one reference, computed once and reused for any clean image.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ReferenceStyle {
-    /// The light-field map (any size: it is resized to each clean image).
-    pub light_field: Image,
+    /// The light-field map (any size: it is resized to each clean image); `None` when the
+    /// renders read none ([`GeneratorConfig::reads_light_field`]).
+    pub light_field: Option<Image>,
     /// The water, for the anchored variant.
     pub water: Option<Water>,
 }
 
 impl ReferenceStyle {
-    /// The style of `reference` for a network with `config`: its light-field map (256x256, the
-    /// map the config names) and, for the anchored variant, its water.
+    /// The style of `reference` for a model with `config`: its light-field map (256x256, the
+    /// map the config names) when its renders read one, and, for the anchored variant, its
+    /// water.
     pub fn new(reference: &Image, config: &GeneratorConfig) -> Result<Self> {
-        let light_field = light_field_with(reference, config.light_field)?;
+        let light_field = if config.reads_light_field() {
+            Some(light_field_with(reference, config.light_field)?)
+        } else {
+            None
+        };
         let water = match config.variant {
             Variant::Paper => None,
             Variant::Anchored => Some(estimate_water_for(
@@ -433,7 +439,7 @@ impl ReferenceStyle {
     #[must_use]
     pub fn from_light_field(light_field: Image) -> Self {
         Self {
-            light_field,
+            light_field: Some(light_field),
             water: None,
         }
     }

@@ -10,6 +10,7 @@
 //! | `uwnr`, the UWNR network | `uwnr_model` | required | scene scale of relative depth |
 //! | `uwgan`, the GAN baseline | `uwnr_gan` | ignored | water code |
 //! | `jerlov`, `uisa`, `seathru`, `reinhard` | `uwnr_baselines` | per method | per method |
+//! | `revised`, Sea-thru with forward scattering and a medium | [`revised`] | per Sea-thru | Sea-thru's, the medium |
 //! | `haze`, a control | [`haze`] | ignored | nothing |
 //!
 //! ```
@@ -26,6 +27,7 @@
 //! assert_eq!(out.params["method"], "haze");
 //! ```
 
+pub mod camera;
 pub mod depth_policy;
 pub mod error;
 pub mod haze;
@@ -35,7 +37,9 @@ pub mod method;
 pub mod options;
 pub mod record;
 pub mod renderer;
+pub mod revised;
 
+pub use camera::Camera;
 pub use depth_policy::{DATASET_PRIOR_TRUST, DATASET_SCENE_SCALE_M, DepthPolicy};
 pub use error::{RenderError, Result};
 pub use haze::HazeParams;
@@ -46,3 +50,4 @@ pub use method::{
 pub use options::{MethodOptions, SeathruSource};
 pub use record::{depth_record, fnv1a64};
 pub use renderer::{PreparedReference, ReferenceInput, Rendered, Renderer, Worker};
+pub use revised::RevisedParams;

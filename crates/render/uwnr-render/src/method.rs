@@ -16,16 +16,19 @@ use uwnr_baselines::{
     JerlovParams, Method, ReferenceCoefficients, ReinhardParams, SampledCoefficients,
     SeathruCoefficients, SeathruParams, UisaParams,
 };
-use uwnr_model::RenderOptions;
+use uwnr_model::{RenderOptions, WaterEffects};
 
 use crate::error::{RenderError, Result};
 use crate::haze::HazeParams;
+use crate::revised::RevisedParams;
 
 /// The render methods, by name.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum MethodKind {
-    /// The UWNR generator: neural rendering from a reference's light field.
+    /// uwnr's model: the reference's water on the photo's own colours, the depth stage and the
+    /// effects of real water; the bundled model runs no network (its correction is none), while
+    /// weights given add the UWNR generator's correction from the reference's light field.
     Uwnr,
     /// The UWGAN-style GAN baseline: water parameters predicted from the clean image, its depth
     /// and a code drawn from the seed.
@@ -38,18 +41,22 @@ pub enum MethodKind {
     Seathru,
     /// Reinhard et al. 2001 colour transfer from the reference.
     Reinhard,
+    /// The revised model with forward scattering and an inhomogeneous medium: Sea-thru's
+    /// render, then the two stages ([`crate::revised`]).
+    Revised,
     /// Plain haze `I = J t + B (1 - t)` with a given veil and attenuation: a control.
     Haze,
 }
 
 impl MethodKind {
     /// Every method, in the order the docs list them.
-    pub const ALL: [Self; 7] = [
+    pub const ALL: [Self; 8] = [
         Self::Uwnr,
         Self::Uwgan,
         Self::Jerlov,
         Self::Uisa,
         Self::Seathru,
+        Self::Revised,
         Self::Reinhard,
         Self::Haze,
     ];
@@ -64,6 +71,7 @@ impl MethodKind {
             Self::Uisa => "uisa",
             Self::Seathru => "seathru",
             Self::Reinhard => "reinhard",
+            Self::Revised => "revised",
             Self::Haze => "haze",
         }
     }
@@ -72,7 +80,11 @@ impl MethodKind {
     #[must_use]
     pub const fn summary(self) -> &'static str {
         match self {
-            Self::Uwnr => "The UWNR generator (neural rendering from the reference's light field)",
+            Self::Uwnr => {
+                "uwnr's model: the reference's water on the photo's own colours, depth (farther \
+                 is hazier) and the effects of real water; the bundled model runs no network, \
+                 --weights adds the UWNR generator's correction from the reference's light field"
+            }
             Self::Uwgan => {
                 "The UWGAN-style GAN baseline (`uwnr gan train`): water parameters predicted from \
                  the clean image, its depth and a code drawn from --seed; no reference needed. \
@@ -84,6 +96,11 @@ impl MethodKind {
             Self::Uisa => "Reference-based physical model in the manner of Hou et al. 2020 (SUID)",
             Self::Seathru => "The revised (Sea-thru) image formation model",
             Self::Reinhard => "Reinhard et al. 2001 colour transfer from the reference",
+            Self::Revised => {
+                "The revised model with forward scattering (a point spread widening with \
+                 distance) and an inhomogeneous medium: Sea-thru, then the two stages \
+                 (--method-config sets their strengths)"
+            }
             Self::Haze => {
                 "Plain haze I = J t + B (1 - t) with a given veil B and attenuation beta \
                  (--method-config; no reference needed): a control"
@@ -159,7 +176,7 @@ impl ComputeDevice {
 }
 
 /// The UWNR network's settings.
-#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct UwnrSpec {
     /// Weights (safetensors with the authors' keys, or their checkpoint); `None`: the bundled
@@ -175,6 +192,10 @@ pub struct UwnrSpec {
     pub tile: usize,
     /// Overlap of tiles in pixels (a multiple of 16).
     pub overlap: usize,
+    /// What real photos have that the water alone lacks (particles, light from above, colours
+    /// the water removes, forward scattering, an uneven medium), drawn from each render's seed;
+    /// `uwnr_model::WaterEffects::DEFAULT` unless set.
+    pub effects: WaterEffects,
 }
 
 impl Default for UwnrSpec {
@@ -187,6 +208,7 @@ impl Default for UwnrSpec {
             max_whole_pixels: o.max_tile_pixels,
             tile: o.tile,
             overlap: o.overlap,
+            effects: WaterEffects::DEFAULT,
         }
     }
 }
@@ -230,8 +252,23 @@ pub enum MethodSpec {
     Seathru(SeathruParams),
     /// Reinhard colour transfer.
     Reinhard(ReinhardParams),
+    /// The revised model with forward scattering and an inhomogeneous medium.
+    Revised(RevisedParams),
     /// Plain haze, a control.
     Haze(HazeParams),
+}
+
+/// Sea-thru's defaults: coefficients fitted to the reference when renders have one, else sampled
+/// on the Jerlov manifold.
+fn seathru_defaults(have_reference: bool) -> SeathruParams {
+    SeathruParams {
+        coefficients: if have_reference {
+            SeathruCoefficients::FromReference(ReferenceCoefficients::default())
+        } else {
+            SeathruCoefficients::Sampled(SampledCoefficients::default())
+        },
+        ..SeathruParams::default()
+    }
 }
 
 /// Whether a method reads the reference image of a render.
@@ -256,6 +293,7 @@ impl MethodSpec {
             Self::Uisa(_) => MethodKind::Uisa,
             Self::Seathru(_) => MethodKind::Seathru,
             Self::Reinhard(_) => MethodKind::Reinhard,
+            Self::Revised(_) => MethodKind::Revised,
             Self::Haze(_) => MethodKind::Haze,
         }
     }
@@ -277,13 +315,10 @@ impl MethodSpec {
             MethodKind::Uwgan => Self::Uwgan(UwganSpec::default()),
             MethodKind::Jerlov => Self::Jerlov(JerlovParams::default()),
             MethodKind::Uisa => Self::Uisa(UisaParams::default()),
-            MethodKind::Seathru => Self::Seathru(SeathruParams {
-                coefficients: if have_reference {
-                    SeathruCoefficients::FromReference(ReferenceCoefficients::default())
-                } else {
-                    SeathruCoefficients::Sampled(SampledCoefficients::default())
-                },
-                ..SeathruParams::default()
+            MethodKind::Seathru => Self::Seathru(seathru_defaults(have_reference)),
+            MethodKind::Revised => Self::Revised(RevisedParams {
+                seathru: seathru_defaults(have_reference),
+                ..RevisedParams::default()
             }),
             MethodKind::Reinhard => Self::Reinhard(ReinhardParams::default()),
             MethodKind::Haze => Self::Haze(HazeParams::default()),
@@ -346,7 +381,7 @@ impl MethodSpec {
             Self::Uisa(p) => Some(Method::Uisa(p.clone())),
             Self::Seathru(p) => Some(Method::Seathru(p.clone())),
             Self::Reinhard(p) => Some(Method::Reinhard(p.clone())),
-            Self::Uwnr(_) | Self::Uwgan(_) | Self::Haze(_) => None,
+            Self::Uwnr(_) | Self::Uwgan(_) | Self::Revised(_) | Self::Haze(_) => None,
         }
     }
 
@@ -370,6 +405,7 @@ impl MethodSpec {
             Self::Jerlov(_) | Self::Uisa(_) | Self::Seathru(_) | Self::Reinhard(_) => {
                 self.baseline().is_some_and(|m| m.needs_reference())
             }
+            Self::Revised(p) => p.baseline().needs_reference(),
         };
         if needs {
             ReferenceUse::Required
@@ -384,10 +420,12 @@ impl MethodSpec {
             Self::Uwnr(s) => {
                 s.render_options()
                     .validate()
+                    .and_then(|()| s.effects.validate())
                     .map_err(|e| RenderError::Invalid(e.to_string()))?;
                 Ok(())
             }
             Self::Haze(p) => p.validate(),
+            Self::Revised(p) => p.validate(),
             Self::Uwgan(_)
             | Self::Jerlov(_)
             | Self::Uisa(_)
@@ -411,6 +449,14 @@ mod tests {
         }
         let e = "jerlow".parse::<MethodKind>().unwrap_err().to_string();
         assert!(e.contains("jerlow") && e.contains("reinhard, haze"), "{e}");
+        let MethodSpec::Revised(p) = MethodSpec::from_json(
+            r#"{"method":"revised","medium":0.2,"seathru":{"coefficients":{"mode":"sampled"}}}"#,
+            Some(MethodKind::Revised),
+        )
+        .unwrap() else {
+            panic!()
+        };
+        assert_eq!((p.medium, p.forward_scatter), (0.2, 0.3));
     }
 
     #[test]

@@ -3,7 +3,7 @@
 
 use serde::Serialize;
 use serde_json::json;
-use uwnr_model::{DepthResponse, DepthScale, GeneratorConfig};
+use uwnr_model::{DepthResponse, DepthScale, GeneratorConfig, WaterEffects};
 
 use crate::method::Precision;
 
@@ -17,6 +17,9 @@ pub(crate) struct NetworkRecord<'a> {
     /// f32 (so datasets made before this field resume unchanged).
     #[serde(skip_serializing_if = "is_f32")]
     pub precision: Precision,
+    /// The stages after the water; absent when none runs.
+    #[serde(skip_serializing_if = "WaterEffects::is_none")]
+    pub effects: &'a WaterEffects,
 }
 
 fn is_f32(p: &Precision) -> bool {

@@ -7,7 +7,9 @@ use std::sync::{Arc, Mutex};
 use serde_json::{Map, Value, json};
 use uwnr_baselines::{Method, RenderInput};
 use uwnr_core::Image;
-use uwnr_model::{Backend, DepthResponse, GeneratorConfig, ReferenceStyle, RenderOptions};
+use uwnr_model::{
+    Backend, DepthResponse, GeneratorConfig, ReferenceStyle, RenderOptions, WaterEffects,
+};
 
 use crate::error::{RenderError, Result};
 use crate::haze::{self, HazeParams};
@@ -15,6 +17,7 @@ use crate::method::{
     ComputeDevice, MethodKind, MethodSpec, Precision, ReferenceUse, UwganSpec, UwnrSpec,
 };
 use crate::record::{GanRecord, NetworkRecord, depth_record, fingerprint};
+use crate::revised::{self, RevisedParams};
 
 /// The UWNR network, loaded.
 struct Network {
@@ -27,6 +30,8 @@ struct Network {
     /// A fingerprint of the weight bytes.
     fingerprint: String,
     precision: Precision,
+    /// The stages after the water (`uwnr_model::effects`).
+    effects: WaterEffects,
 }
 
 /// The GAN baseline's generator, loaded.
@@ -42,6 +47,7 @@ enum Imp {
     Uwnr(Box<Network>),
     Uwgan(Box<Gan>),
     Baseline(Method),
+    Revised(RevisedParams),
     Haze(HazeParams),
 }
 
@@ -82,7 +88,8 @@ impl PreparedReference {
         let style = self
             .style
             .as_ref()
-            .map_or(0, |s| s.light_field.data().len());
+            .and_then(|s| s.light_field.as_ref())
+            .map_or(0, |lf| lf.data().len());
         ((image + style) * std::mem::size_of::<f32>()) as u64
     }
 
@@ -112,6 +119,7 @@ impl Renderer {
             MethodSpec::Uwnr(s) => Imp::Uwnr(Box::new(load_network(s)?)),
             MethodSpec::Uwgan(s) => Imp::Uwgan(Box::new(load_gan(s)?)),
             MethodSpec::Haze(p) => Imp::Haze(p.clone()),
+            MethodSpec::Revised(p) => Imp::Revised(p.clone()),
             MethodSpec::Jerlov(_)
             | MethodSpec::Uisa(_)
             | MethodSpec::Seathru(_)
@@ -158,6 +166,7 @@ impl Renderer {
             max_whole_pixels: options.max_tile_pixels,
             tile: options.tile,
             overlap: options.overlap,
+            effects: WaterEffects::NONE,
             ..UwnrSpec::default()
         });
         Self {
@@ -169,6 +178,7 @@ impl Renderer {
                 weights,
                 fingerprint: fingerprint(weight_bytes),
                 precision,
+                effects: WaterEffects::NONE,
             })),
             without_reference: None,
         }
@@ -228,7 +238,7 @@ impl Renderer {
     pub fn generator_config(&self) -> Option<&GeneratorConfig> {
         match &self.imp {
             Imp::Uwnr(n) => Some(&n.config),
-            Imp::Uwgan(_) | Imp::Baseline(_) | Imp::Haze(_) => None,
+            Imp::Uwgan(_) | Imp::Baseline(_) | Imp::Revised(_) | Imp::Haze(_) => None,
         }
     }
 
@@ -238,7 +248,7 @@ impl Renderer {
         match &self.imp {
             Imp::Uwnr(n) => Some(&n.weights),
             Imp::Uwgan(g) => Some(&g.weights),
-            Imp::Baseline(_) | Imp::Haze(_) => None,
+            Imp::Baseline(_) | Imp::Revised(_) | Imp::Haze(_) => None,
         }
     }
 
@@ -252,6 +262,7 @@ impl Renderer {
                 fingerprint: &n.fingerprint,
                 config: &n.config,
                 precision: n.precision,
+                effects: &n.effects,
             }),
             Imp::Uwgan(g) => serde_json::to_value(GanRecord {
                 weights: &g.weights,
@@ -259,20 +270,33 @@ impl Renderer {
                 config: &g.config,
             }),
             Imp::Baseline(m) => serde_json::to_value(m),
-            Imp::Haze(_) => serde_json::to_value(&self.spec),
+            Imp::Revised(_) | Imp::Haze(_) => serde_json::to_value(&self.spec),
         };
         value.map_err(|e| RenderError::Invalid(format!("cannot record the method's settings: {e}")))
     }
 
-    /// The style of reference `img`: for the network its light field in the map its config
-    /// names (and the water, for the anchored variant); the other methods read no light field,
-    /// so the released map is kept for them (what a dataset saves with `--save-lightfield`).
-    pub fn reference_style(&self, img: &Image) -> Result<ReferenceStyle> {
+    /// The style of reference `img`: for the uwnr method what its config reads (the light field
+    /// in the map it names when a network or the Reinhard anchor reads one, and the water for the
+    /// anchored variant). `keep_light_field` adds the map when the renders read none (what a
+    /// dataset saves with `--save-lightfield`; the released map for the other methods).
+    pub fn reference_style(&self, img: &Image, keep_light_field: bool) -> Result<ReferenceStyle> {
         match &self.imp {
-            Imp::Uwnr(n) => ReferenceStyle::new(img, &n.config),
-            _ => uwnr_core::lightfield::light_field(img)
+            Imp::Uwnr(n) => ReferenceStyle::new(img, &n.config).and_then(|mut style| {
+                if keep_light_field && style.light_field.is_none() {
+                    style.light_field = Some(uwnr_core::lightfield::light_field_with(
+                        img,
+                        n.config.light_field,
+                    )?);
+                }
+                Ok(style)
+            }),
+            _ if keep_light_field => uwnr_core::lightfield::light_field(img)
                 .map(ReferenceStyle::from_light_field)
                 .map_err(uwnr_model::ModelError::from),
+            _ => Ok(ReferenceStyle {
+                light_field: None,
+                water: None,
+            }),
         }
         .map_err(|e| RenderError::Failed {
             context: "style of the reference".into(),
@@ -284,17 +308,17 @@ impl Renderer {
     /// style only).
     #[must_use]
     pub fn wants_reference_image(&self) -> bool {
-        matches!(self.imp, Imp::Baseline(_))
+        matches!(self.imp, Imp::Baseline(_) | Imp::Revised(_))
     }
 
     /// What this method reads of reference `img`, computed once for many renders.
     pub fn prepare_reference(&self, img: Arc<Image>) -> Result<PreparedReference> {
         Ok(match &self.imp {
             Imp::Uwnr(_) => PreparedReference {
-                style: Some(self.reference_style(&img)?),
+                style: Some(self.reference_style(&img, false)?),
                 image: None,
             },
-            Imp::Baseline(_) => PreparedReference {
+            Imp::Baseline(_) | Imp::Revised(_) => PreparedReference {
                 image: Some(img),
                 style: None,
             },
@@ -323,6 +347,7 @@ impl Renderer {
                 method: m,
                 without_reference: self.without_reference.as_ref(),
             },
+            Imp::Revised(p) => WorkerImp::Revised(p),
             Imp::Haze(p) => WorkerImp::Haze(p),
         }))
     }
@@ -350,6 +375,7 @@ enum WorkerImp<'a> {
         method: &'a Method,
         without_reference: Option<&'a Method>,
     },
+    Revised(&'a RevisedParams),
     Haze(&'a HazeParams),
 }
 
@@ -379,9 +405,20 @@ impl Worker<'_> {
                     depth: *response,
                     ..net.options
                 };
-                let image = generator
+                let mut image = generator
                     .render(clean, depth, style, &options)
                     .map_err(|e| failed("rendering", e))?;
+                if !net.effects.is_none() {
+                    // A network without a water (the paper's variant) lights particles and
+                    // the medium towards the render's own mean colour.
+                    let veil = match style.water.as_ref() {
+                        Some(w) => w.veil,
+                        None => mean_colour(&image),
+                    };
+                    net.effects
+                        .apply(&mut image, depth, veil, seed)
+                        .map_err(|e| failed("the water's effects", e))?;
+                }
                 let mut params = json!({ "weights": net.weights, "depth": depth_record(response) });
                 if let Some(affine) = style.water.as_ref().and_then(|w| w.affine) {
                     params["water"] = json!(affine);
@@ -428,12 +465,34 @@ impl Worker<'_> {
                     params: rendered.params,
                 })
             }
+            WorkerImp::Revised(p) => {
+                if p.baseline().needs_reference() && reference.image.is_none() {
+                    return Err(RenderError::NeedsReference {
+                        method: MethodKind::Revised.name(),
+                    });
+                }
+                let input = RenderInput {
+                    clean,
+                    depth,
+                    reference: reference.image,
+                };
+                let (image, params) = revised::render(p, &input, seed)?;
+                Ok(Rendered { image, params })
+            }
             WorkerImp::Haze(p) => {
                 let (image, params) = haze::render(p, clean, depth)?;
                 Ok(Rendered { image, params })
             }
         }
     }
+}
+
+/// Mean of each channel of an RGB image.
+fn mean_colour(img: &Image) -> [f32; 3] {
+    std::array::from_fn(|c| {
+        let p = img.plane(c);
+        (p.iter().map(|&v| f64::from(v)).sum::<f64>() / p.len().max(1) as f64) as f32
+    })
 }
 
 fn failed(context: &str, e: impl std::fmt::Display) -> RenderError {
@@ -472,14 +531,23 @@ fn load_network(s: &UwnrSpec) -> Result<Network> {
             (network, bytes, source)
         }
         None => {
-            let bytes = uwnr_model::bundled_weights()
-                .ok_or_else(|| RenderError::Invalid(NO_BUNDLED_MODEL.into()))?;
             let source = uwnr_model::BUNDLED_MODEL_NAME.to_string();
-            let (network, _info) = uwnr_model::Network::load_from_bytes(bytes, &backend)
+            let (bytes, config) = uwnr_model::bundled_model_bytes()
+                .zip(uwnr_model::bundled_config())
+                .ok_or_else(|| RenderError::Invalid(NO_BUNDLED_MODEL.into()))?;
+            let network = config
+                .and_then(|c| uwnr_model::Network::uncorrected(&c))
                 .map_err(|e| weights_error(&source, e))?;
             (network, bytes.to_vec(), source)
         }
     };
+    if !network.runs_network() && s.precision == Precision::Bf16 {
+        return Err(RenderError::Invalid(
+            "precision bf16 applies to a network, and this model runs none (its correction is \
+             none): drop it, or give --weights"
+                .into(),
+        ));
+    }
     Ok(Network {
         config: *network.config(),
         generator: Mutex::new(network),
@@ -487,6 +555,7 @@ fn load_network(s: &UwnrSpec) -> Result<Network> {
         weights,
         fingerprint: fingerprint(&bytes),
         precision: s.precision,
+        effects: s.effects,
     })
 }
 

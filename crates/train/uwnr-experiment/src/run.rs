@@ -484,6 +484,7 @@ pub fn run_downstream(
         depth_policy: spec.depth_policy,
         labels: uwnr_dataset::LabelInputs::default(),
         target: None,
+        camera: uwnr_render::Camera::default(),
     };
     let real_names: Vec<String> = short_names(&spec.real)
         .into_iter()

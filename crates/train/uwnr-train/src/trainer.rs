@@ -183,7 +183,10 @@ fn reference_style(cfg: &TrainConfig, v: &ValPair) -> Result<ReferenceStyle> {
             cfg.model.detail_retention,
         )?),
     };
-    Ok(ReferenceStyle { light_field, water })
+    Ok(ReferenceStyle {
+        light_field: Some(light_field),
+        water,
+    })
 }
 
 /// UWNR's part of a run.

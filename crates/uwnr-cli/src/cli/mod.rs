@@ -160,16 +160,33 @@ pub struct ModelOpts {
     /// Compute device.
     #[arg(long, value_enum, default_value_t = DeviceArg::Engine)]
     pub device: DeviceArg,
-    /// Images with more pixels than this are rendered in overlapping tiles (memory stays bounded).
-    #[arg(long, value_name = "PIXELS", default_value_t = 1_048_576)]
-    pub max_whole_pixels: usize,
-    /// Tile edge in pixels for tiled rendering (a multiple of 16).
-    #[arg(long, value_name = "PIXELS", default_value_t = 1024)]
-    pub tile: usize,
-    /// Overlap between tiles in pixels (a multiple of 16); at 192 or more the blend stays outside
-    /// the network's 76-pixel reach from a cut edge, so tiled output equals whole-image output.
-    #[arg(long, value_name = "PIXELS", default_value_t = 192)]
-    pub overlap: usize,
+    /// With --weights: images with more pixels than this run the network in overlapping tiles
+    /// (memory stays bounded) [default: 1048576]. The bundled model runs no network and takes
+    /// none of the tiling flags.
+    #[arg(long, value_name = "PIXELS")]
+    pub max_whole_pixels: Option<usize>,
+    /// With --weights: tile edge in pixels for tiled rendering (a multiple of 16) [default: 1024].
+    #[arg(long, value_name = "PIXELS")]
+    pub tile: Option<usize>,
+    /// With --weights: overlap between tiles in pixels (a multiple of 16) [default: 192]; at 192
+    /// or more the blend stays outside the network's 76-pixel reach from a cut edge, so tiled
+    /// output equals whole-image output.
+    #[arg(long, value_name = "PIXELS")]
+    pub overlap: Option<usize>,
+}
+
+impl ModelOpts {
+    /// The tiling flag given, if any (they apply to a network only).
+    #[must_use]
+    pub fn tiling_flag(&self) -> Option<&'static str> {
+        [
+            ("--max-whole-pixels", self.max_whole_pixels.is_some()),
+            ("--tile", self.tile.is_some()),
+            ("--overlap", self.overlap.is_some()),
+        ]
+        .into_iter()
+        .find_map(|(name, given)| given.then_some(name))
+    }
 }
 
 /// The parser of `--method` and `--methods`: the methods of `uwnr-render`, each with its one-line
@@ -273,8 +290,9 @@ impl From<ReinhardSpaceArg> for uwnr_baselines::ColourSpace {
 /// apply to.
 #[derive(Debug, Clone, Args)]
 pub struct BaselineOpts {
-    /// Full parameters of the baseline as JSON (e.g. `{"method":"jerlov","water_type":"3C"}`);
-    /// the flags below override what it sets.
+    /// Full parameters of the method as JSON (e.g. `{"method":"jerlov","water_type":"3C"}`, or
+    /// `{"method":"uwnr","effects":{}}` for uwnr without its effects stages); the flags below
+    /// (and, for uwnr, --weights and the tiling flags) override what it sets. Not for uwgan.
     #[arg(long, value_name = "FILE.json")]
     pub method_config: Option<PathBuf>,
     /// Jerlov water type (with --method jerlov); random per image if absent.

@@ -62,7 +62,7 @@ pub struct RenderArgs {
     /// (needed by every method but jerlov and seathru with sampled or given coefficients).
     #[arg(long, short = 'r', num_args = 1.., value_name = "REF")]
     pub reference: Vec<PathBuf>,
-    /// Rendering method: the UWNR network or a physical / statistical baseline.
+    /// Rendering method: uwnr's model, the GAN baseline, or a physical / statistical baseline.
     #[arg(long, value_parser = method_parser(), default_value = "uwnr")]
     pub method: MethodKind,
     #[command(flatten)]
@@ -201,6 +201,11 @@ pub struct DatasetMakeArgs {
     /// LSUI training pairs the bundled water bank was fitted on. Needs a water-anchored model.
     #[arg(long, value_name = "DIR")]
     pub target: Option<PathBuf>,
+    /// The camera stage every underwater render goes through, whatever the method: `typical`
+    /// (0.8 px lens blur at 256 px, read and shot noise, JPEG at quality 70), `none`, or a JSON
+    /// object of blur, read_noise, shot_noise and jpeg_quality. Recorded in dataset.json.
+    #[arg(long, value_name = "none|typical|JSON", default_value = "typical", value_parser = parse_camera)]
+    pub camera: uwnr_render::Camera,
     /// Output format: folders only, or folders then WebDataset tar shards.
     #[arg(long, value_enum, default_value_t = DatasetFormat::Folder)]
     pub format: DatasetFormat,
@@ -318,4 +323,8 @@ pub struct EvalArgs {
     /// Write per-image scores as CSV.
     #[arg(long, value_name = "FILE")]
     pub csv: Option<PathBuf>,
+}
+
+fn parse_camera(text: &str) -> Result<uwnr_render::Camera, String> {
+    uwnr_render::Camera::parse(text).map_err(|e| e.to_string())
 }

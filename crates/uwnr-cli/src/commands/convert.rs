@@ -11,7 +11,7 @@ use uwnr_model::{WeightsDtype, save_weights};
 use crate::cli::{ConvertArgs, DtypeArg};
 
 pub fn run(a: &ConvertArgs) -> Result<ExitCode> {
-    let (loaded, _) = super::load_model(Some(&a.input))?;
+    let (loaded, _) = super::load_model(&a.input)?;
     let (config, info) = (loaded.config, loaded.info);
     let mut tensors = loaded.tensors;
     // The full key set, as the authors' `load_state_dict` expects it.

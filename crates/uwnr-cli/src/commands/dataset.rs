@@ -109,6 +109,7 @@ fn make(a: &DatasetMakeArgs) -> Result<ExitCode> {
                 uwnr_dataset::WaterTarget::load(dir, &uwnr_core::io::DecodeLimits::default())
             })
             .transpose()?,
+        camera: a.camera,
     };
     let jobs = a.jobs.unwrap_or_else(|| {
         std::thread::available_parallelism()

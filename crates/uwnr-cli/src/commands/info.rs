@@ -9,9 +9,13 @@ use crate::cli::InfoArgs;
 
 pub fn run(a: &InfoArgs) -> Result<ExitCode> {
     let (w, h) = a.size;
-    let have_weights = a.weights.is_some() || super::bundled_weights().is_some();
-    let (config, source) = if have_weights {
-        let (config, info, source) = super::model_facts(a.weights.as_deref())?;
+    if a.weights.is_none()
+        && let Some(config) = uwnr_model::bundled_config()
+    {
+        return describe_bundled(&config?);
+    }
+    let (config, source) = if let Some(path) = &a.weights {
+        let (config, info, source) = super::model_facts(path)?;
         println!("weights:     {source}");
         println!("format:      {:?}, {:?}", info.format, info.dtype);
         for (k, v) in &info.metadata {
@@ -75,5 +79,31 @@ pub fn run(a: &InfoArgs) -> Result<ExitCode> {
         "compute:     {:.2} GMac at {w}x{h} (padded to {pw}x{ph})",
         uwnr_model::gmacs(&config, ph, pw)
     );
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `uwnr info` on the bundled model: what runs.
+fn describe_bundled(config: &GeneratorConfig) -> Result<ExitCode> {
+    println!(
+        "model:       {} (assets/model/uwnr-default.json)",
+        uwnr_model::BUNDLED_MODEL_NAME
+    );
+    if config.runs_network() {
+        println!("correction:  a network (MHB-Unet), whose weights this build does not carry");
+        return Ok(ExitCode::SUCCESS);
+    }
+    println!("correction:  none: no network is loaded or run, no light field is computed");
+    println!(
+        "renders:     the reference's water (gain and offset per channel, read off its statistics \
+         by the bundled water bank's linear regressor) on the photo's own colours{}; the depth \
+         stage (farther is hazier); the effects (particles, light from above, colours the water \
+         removes, forward scattering; `--method-config` sets them)",
+        if config.detail_retention {
+            ", with the reference's share of fine detail"
+        } else {
+            ""
+        }
+    );
+    println!("weights:     none (--weights FILE renders with a trained network's correction)");
     Ok(ExitCode::SUCCESS)
 }

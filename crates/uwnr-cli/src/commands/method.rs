@@ -47,7 +47,7 @@ pub fn refuse_inapplicable(
 ) -> Result<()> {
     let configurable: Vec<MethodKind> = MethodKind::ALL
         .into_iter()
-        .filter(|k| !k.loads_weights())
+        .filter(|k| *k != MethodKind::Uwgan)
         .collect();
     if o.method_config.is_some() && !methods.iter().any(|m| configurable.contains(m)) {
         let to = configurable.iter().map(|m| m.name()).collect::<Vec<_>>();
@@ -69,8 +69,9 @@ pub fn refuse_inapplicable(
     Ok(())
 }
 
-/// Method `kind` with its flags applied: the networks take the model options, the other
-/// methods `--method-config`; both then take the options their flags set ([`options`]).
+/// Method `kind` with its flags applied: `--method-config` (every method but the GAN, whose
+/// settings are its weights), then the model options for the networks (weights and tiling
+/// override the config's), then the options the flags set ([`options`]).
 /// Callers first refuse flags that apply to none of their methods ([`refuse_inapplicable`]).
 pub fn method_spec(
     kind: MethodKind,
@@ -80,7 +81,7 @@ pub fn method_spec(
     have_reference: bool,
 ) -> Result<MethodSpec> {
     let mut spec = match &o.method_config {
-        Some(path) if !kind.loads_weights() => {
+        Some(path) if kind != MethodKind::Uwgan => {
             let text = std::fs::read_to_string(path)
                 .with_context(|| format!("reading {}", path.display()))?;
             MethodSpec::from_json(&text, Some(kind))
@@ -100,12 +101,34 @@ pub fn method_spec(
     options(kind, o, precision).apply(&mut spec);
     match &mut spec {
         MethodSpec::Uwnr(s) => {
-            s.weights.clone_from(&model.weights);
-            s.max_whole_pixels = model.max_whole_pixels;
-            s.tile = model.tile;
-            s.overlap = model.overlap;
+            if model.weights.is_some() {
+                s.weights.clone_from(&model.weights);
+            }
+            if s.weights.is_none() {
+                // The bundled model runs no network: flags for one would do nothing.
+                if let Some(flag) = model.tiling_flag() {
+                    bail!(
+                        "{flag} tiles a network, and the bundled model runs none (its correction is \
+                         none): drop it, or give --weights"
+                    );
+                }
+                if precision == PrecisionArg::Bf16 {
+                    bail!(
+                        "--precision bf16 applies to a network, and the bundled model runs none \
+                         (its correction is none): drop it, or give --weights"
+                    );
+                }
+            }
+            s.max_whole_pixels = model.max_whole_pixels.unwrap_or(s.max_whole_pixels);
+            s.tile = model.tile.unwrap_or(s.tile);
+            s.overlap = model.overlap.unwrap_or(s.overlap);
         }
-        MethodSpec::Uwgan(s) => s.weights.clone_from(&model.weights),
+        MethodSpec::Uwgan(s) => {
+            if let Some(flag) = model.tiling_flag() {
+                bail!("{flag} tiles the UWNR network; --method uwgan renders whole images");
+            }
+            s.weights.clone_from(&model.weights);
+        }
         _ => {}
     }
     if !kind.loads_weights()

@@ -72,31 +72,12 @@ pub fn device(arg: DeviceArg) -> Result<uwnr_train::Device> {
     uwnr_train::device_from_name(name).with_context(|| format!("selecting device {name:?}"))
 }
 
-/// Weights of the model shipped inside this binary (`uwnr_model::bundled_weights`).
-pub fn bundled_weights() -> Option<&'static [u8]> {
-    uwnr_model::bundled_weights()
-}
-
-/// Reads the generator's weights from `--weights`, or the bundled model, and checks that they
-/// build the network (every key and shape, as a render would); returns them with where they
-/// came from.
-pub fn load_model(weights: Option<&Path>) -> Result<(LoadedWeights, String)> {
-    let (loaded, source) = match weights {
-        Some(path) => (
-            uwnr_model::read_weights(path)
-                .with_context(|| format!("loading weights {}", path.display()))?,
-            path.display().to_string(),
-        ),
-        None => match bundled_weights() {
-            Some(bytes) => (
-                uwnr_model::read_weights_from_bytes(bytes).context("loading the bundled model")?,
-                uwnr_model::BUNDLED_MODEL_NAME.to_string(),
-            ),
-            None => bail!(
-                "this build has no bundled model: pass --weights FILE (safetensors or the authors' checkpoint)"
-            ),
-        },
-    };
+/// Reads the generator's weights from `path` and checks that they build the network (every key
+/// and shape, as a render would); returns them with where they came from.
+pub fn load_model(path: &Path) -> Result<(LoadedWeights, String)> {
+    let loaded = uwnr_model::read_weights(path)
+        .with_context(|| format!("loading weights {}", path.display()))?;
+    let source = path.display().to_string();
     let (_, ignored) = uwnr_model::weights::engine_weights(&loaded.config, loaded.tensors.clone())
         .with_context(|| format!("loading weights {source}"))?;
     let mut loaded = loaded;
@@ -105,8 +86,8 @@ pub fn load_model(weights: Option<&Path>) -> Result<(LoadedWeights, String)> {
 }
 
 /// The config and facts of [`load_model`]'s weights.
-pub fn model_facts(weights: Option<&Path>) -> Result<(GeneratorConfig, WeightsInfo, String)> {
-    let (loaded, source) = load_model(weights)?;
+pub fn model_facts(path: &Path) -> Result<(GeneratorConfig, WeightsInfo, String)> {
+    let (loaded, source) = load_model(path)?;
     Ok((loaded.config, loaded.info, source))
 }
 

@@ -18,8 +18,9 @@ const MIN_CHANGE: f64 = 15.0;
 const DEPTHS: [f32; 5] = [0.0, 0.25, 0.5, 0.75, 1.0];
 
 fn bundled() -> Network {
-    let bytes = uwnr_model::bundled_weights().expect("this build bundles the default model");
-    Network::load_from_bytes(bytes, &Backend::Engine).unwrap().0
+    uwnr_model::bundled_network()
+        .expect("this build bundles the default model")
+        .unwrap()
 }
 
 fn small(path: &Path, long_side: usize) -> Image {

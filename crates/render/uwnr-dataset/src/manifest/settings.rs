@@ -53,6 +53,10 @@ pub struct Settings {
     /// other methods.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub target: Option<serde_json::Value>,
+    /// The camera stage the underwater side went through (`uwnr_render::camera`); absent when
+    /// none did (and in datasets made before it existed).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub camera: Option<uwnr_render::Camera>,
     /// The strength of the finished folder, PSNR(underwater, clean) (written when a run
     /// completes; not compared on resume).
     #[serde(default, skip_serializing_if = "Option::is_none")]

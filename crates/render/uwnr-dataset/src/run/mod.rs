@@ -44,7 +44,7 @@ use crate::manifest::{
 };
 use crate::plan::{Shard, Size, discover_images};
 use crate::renderer::Renderer;
-use uwnr_render::{DepthPolicy, JobWorker};
+use uwnr_render::{Camera, DepthPolicy, JobWorker};
 
 /// What to generate.
 #[derive(Clone, Debug)]
@@ -72,6 +72,9 @@ pub struct Spec {
     /// The strengths to calibrate a water-anchored model's pairs to ([`crate::target`]);
     /// `None`: the bundled real pairs'. Refused for methods without a water.
     pub target: Option<WaterTarget>,
+    /// The camera stage every underwater render goes through, whatever the method
+    /// (`uwnr_render::camera`); [`Camera::NONE`] leaves renders as the method made them.
+    pub camera: Camera,
 }
 
 /// Whether `renderer`'s pairs are calibrated to a target ([`Spec::target`]): a model whose
@@ -291,6 +294,7 @@ fn generate_in(
         labels: settings_labels,
         masks: settings_masks,
         target: calibration.as_ref().map(WaterTarget::record),
+        camera: (!spec.camera.is_none()).then_some(spec.camera),
         strength: None,
         labels_dropped: None,
     };

@@ -11,7 +11,7 @@ use uwnr_core::io::{DecodeLimits, load_rgb, save_gray16, save_rgb};
 use uwnr_core::resize::resize_bilinear;
 use uwnr_depth::PreparedDepth;
 use uwnr_model::ReferenceStyle;
-use uwnr_render::{JobWorker, Rendered};
+use uwnr_render::{Camera, JobWorker, Rendered};
 
 use super::{Msg, RefCache, Spec, fit, fit_geometry};
 use crate::labels::{Fit, Labels, PairLabels};
@@ -201,7 +201,7 @@ impl Context<'_> {
                     .map_err(|e| e.to_string())
                     .and_then(|img| {
                         self.renderer
-                            .reference_style(&img)
+                            .reference_style(&img, self.spec.save_lightfield)
                             .map_err(|e| e.to_string())
                     });
                 if let Err(reason) = &lf {
@@ -271,7 +271,7 @@ impl Context<'_> {
             .and(reference)
             .map(|(_, style)| ReferenceStyle::clone(style));
         let Rendered {
-            image: underwater,
+            image: rendered,
             mut params,
         } = loop {
             // The reference's own water each time, scaled with the pair's.
@@ -299,7 +299,16 @@ impl Context<'_> {
                 break rendered;
             }
         };
-        let lf = reference.map(|(_, style)| &style.light_field);
+        // The camera after the water (the strength calibration measured the water alone).
+        let camera = self.spec.camera;
+        let underwater = if camera.is_none() {
+            rendered
+        } else {
+            camera
+                .apply(&rendered, Camera::seed(seed))
+                .map_err(|e| e.to_string())?
+        };
+        let lf = reference.and_then(|(_, style)| style.light_field.as_ref());
         let name = format!("{id}.png");
         let write = |dir: &str, f: &dyn Fn(&Path) -> uwnr_core::Result<()>| {
             let p = self.out.join(dir).join(&name);
@@ -330,8 +339,8 @@ impl Context<'_> {
         }
         // The pair as stored: both sides 8-bit (a calibrated pair's last render was measured).
         let strength_db = match calibration.as_ref().and_then(|pw| pw.rendered_db.last()) {
-            Some(&db) => Some(db),
-            None => uwnr_model::water::pair_psnr(&underwater.quantised(), clean).ok(),
+            Some(&db) if camera.is_none() => Some(db),
+            _ => uwnr_model::water::pair_psnr(&underwater.quantised(), clean).ok(),
         }
         .filter(|v| v.is_finite());
         Ok((params, reference_source, strength_db))

@@ -69,6 +69,7 @@ pub fn spec(clean: &Path, refs: &Path, k: usize) -> Spec {
         depth_policy: uwnr_render::DepthPolicy::default(),
         labels: uwnr_dataset::LabelInputs::default(),
         target: None,
+        camera: uwnr_render::Camera::NONE,
     }
 }
 

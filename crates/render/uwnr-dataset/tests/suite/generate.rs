@@ -184,3 +184,43 @@ fn unreadable_inputs_are_listed_and_the_run_goes_on() {
     assert!(report.ok(), "{:?}", report.problems);
     assert_eq!(report.failed, 3);
 }
+
+#[test]
+fn the_camera_stage_is_applied_recorded_and_refused_on_resume_when_changed() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (clean, refs) = inputs(tmp.path(), 3, 3);
+    let (plain, with) = (tmp.path().join("plain"), tmp.path().join("camera"));
+    run(&plain, &spec(&clean, &refs, 1), &reinhard(), &opts(1));
+    let mut sp = spec(&clean, &refs, 1);
+    sp.camera = uwnr_render::Camera::TYPICAL;
+    run(&with, &sp, &reinhard(), &opts(2));
+    // Recorded as set; absent without a camera.
+    assert_eq!(
+        Settings::read(&with).unwrap().camera,
+        Some(uwnr_render::Camera::TYPICAL)
+    );
+    assert_eq!(Settings::read(&plain).unwrap().camera, None);
+    // The underwater side went through it, the clean side did not.
+    let limits = DecodeLimits::default();
+    let m = read_manifest(&with.join("manifest.jsonl")).unwrap();
+    let mut moved = 0;
+    for (_, r) in m.records {
+        let load = |root: &std::path::Path, f: &str| load_rgb(&root.join(f), &limits).unwrap();
+        assert_eq!(load(&with, &r.clean), load(&plain, &r.clean));
+        if load(&with, &r.underwater) != load(&plain, &r.underwater) {
+            moved += 1;
+        }
+    }
+    assert_eq!(moved, 3);
+    // The same camera resumes (nothing to do); another one is refused.
+    let s = run(&with, &sp, &reinhard(), &opts(1));
+    assert_eq!((s.skipped, s.rendered), (3, 0));
+    sp.camera.jpeg_quality = 90;
+    let stop = AtomicBool::new(false);
+    let err =
+        uwnr_dataset::generate(&with, &sp, &reinhard(), &opts(1), &stop, &mut |_| {}).unwrap_err();
+    assert!(
+        matches!(&err, DatasetError::SettingsMismatch { field, .. } if field == "camera.jpeg_quality"),
+        "{err}"
+    );
+}

@@ -261,6 +261,7 @@ pub fn infer_config(tensors: &TensorMap) -> Result<GeneratorConfig> {
         variant: Variant::Paper,
         detail_retention: false,
         anchor: crate::config::AnchorKind::Reinhard,
+        correction: crate::config::Correction::Network,
     };
     config.validate()?;
     Ok(config)
