@@ -220,3 +220,71 @@ impl Network {
         ReferenceStyle::new(reference, &self.config)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::{AnchorKind, Correction};
+    use crate::infer::RenderOptions;
+
+    fn water_model(correction: Correction) -> GeneratorConfig {
+        GeneratorConfig {
+            anchor: AnchorKind::Water,
+            detail_retention: true,
+            correction,
+            ..GeneratorConfig::anchored(8)
+        }
+    }
+
+    fn textured(w: usize, h: usize, tint: [f32; 3]) -> Image {
+        let mut img = Image::filled(w, h, 3, 0.0);
+        for (c, t) in tint.iter().enumerate() {
+            for (i, v) in img.plane_mut(c).iter_mut().enumerate() {
+                *v = t * (0.5 + 0.4 * ((i % w) as f32 * 0.3 + (i / w) as f32 * 0.2).sin());
+            }
+        }
+        img
+    }
+
+    #[test]
+    fn without_a_correction_no_network_is_loaded_and_no_light_field_computed() {
+        let none = water_model(Correction::None);
+        let net = Network::uncorrected(&none).unwrap();
+        assert!(!net.runs_network() && !none.runs_network() && !none.reads_light_field());
+        let reference = textured(48, 40, [0.2, 0.7, 0.6]);
+        let style = net.style(&reference).unwrap();
+        assert!(style.light_field.is_none() && style.water.is_some());
+        let clean = textured(40, 32, [0.9, 0.8, 0.7]);
+        let depth = Image::filled(40, 32, 1, 0.5);
+        let out = net
+            .render(&clean, &depth, &style, &RenderOptions::default())
+            .unwrap();
+        assert_eq!(out.size(), clean.size());
+        assert_ne!(out, clean);
+        // A network config needs its weights; weights cannot come with no network.
+        let with = water_model(Correction::Network);
+        assert!(with.runs_network() && with.reads_light_field());
+        assert!(Network::uncorrected(&with).is_err());
+        let e = Network::from_tensors(&none, TensorMap::new(), &Backend::Engine).unwrap_err();
+        assert!(e.to_string().contains("correction is none"), "{e}");
+        // The paper's variant always runs its network.
+        let paper = GeneratorConfig {
+            correction: Correction::None,
+            ..GeneratorConfig::with_base_width(8)
+        };
+        assert!(paper.validate().is_err());
+        // Old configs (no field) read as a network; `none` round-trips.
+        let old: GeneratorConfig = serde_json::from_str(
+            r#"{"in_channels":9,"out_channels":6,"base_width":8,"light_field":"absolute","variant":"anchored","anchor":"water"}"#,
+        )
+        .unwrap();
+        assert_eq!(old.correction, Correction::Network);
+        assert!(!serde_json::to_string(&old).unwrap().contains("correction"));
+        let text = serde_json::to_string(&none).unwrap();
+        assert!(text.contains(r#""correction":"none""#), "{text}");
+        assert_eq!(
+            serde_json::from_str::<GeneratorConfig>(&text).unwrap(),
+            none
+        );
+    }
+}

@@ -224,10 +224,18 @@ fn info_reports_the_bundled_model_and_the_variant() {
     let o = uwnr(&["info"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let text = String::from_utf8_lossy(&o.stdout);
-    // The bundled v4 model: the anchored variant at base width 32, with detail retention.
-    assert!(text.contains("2896178"), "{text}");
-    assert!(text.contains("variant:     anchored"), "{text}");
-    assert!(text.contains("detail retention"), "{text}");
+    // The bundled model: a config whose correction is none, so info says no network runs and
+    // names what does (no parameter count or GMac of a network that is not there).
+    assert!(text.contains("correction:  none"), "{text}");
+    assert!(text.contains("no network is loaded or run"), "{text}");
+    assert!(
+        text.contains("fine detail") && text.contains("particles"),
+        "{text}"
+    );
+    assert!(
+        !text.contains("GMac") && !text.contains("MHB-Unet"),
+        "{text}"
+    );
     // A file of the paper's generator (the parity fixture, width 8) is the paper's variant.
     let w = weights();
     let o = uwnr(&["info", "--weights", s(&w)]);

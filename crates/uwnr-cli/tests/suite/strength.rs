@@ -113,10 +113,12 @@ fn strength_is_reported_per_pair_and_for_the_folder() {
         }
         sum += db;
     }
-    // On these tiny textured photos the depth haze (not scaled with the water) keeps 3 of the 6
-    // pairs stronger than their target even at a small scale; the other 3 reach it.
+    // On these tiny textured photos the depth haze, the particles and the camera's noise (none
+    // scaled with the water) keep 4 of the 6 pairs stronger than their target even at a small
+    // scale (each of them checked above to have used its renders or reached the bound); the
+    // other 2 reach it.
     assert!(
-        on_target >= 3,
+        on_target >= 2,
         "{on_target} of 6 pairs at their target strength"
     );
     let mean = strength["mean"].as_f64().unwrap();

@@ -270,8 +270,9 @@ impl Context<'_> {
             .as_ref()
             .and(reference)
             .map(|(_, style)| ReferenceStyle::clone(style));
+        let camera = self.spec.camera;
         let Rendered {
-            image: rendered,
+            image: underwater,
             mut params,
         } = loop {
             // The reference's own water each time, scaled with the pair's.
@@ -287,9 +288,16 @@ impl Context<'_> {
                 image: reference_image.as_ref(),
                 style: Some(calibrated.as_ref().unwrap_or(lf)),
             });
-            let rendered = worker
+            let mut rendered = worker
                 .render(clean, depth, input, seed)
                 .map_err(|e| e.to_string())?;
+            // The camera after the water, inside the calibration: the pair as stored is what
+            // reaches its target strength.
+            if !camera.is_none() {
+                rendered.image = camera
+                    .apply(&rendered.image, Camera::seed(seed))
+                    .map_err(|e| e.to_string())?;
+            }
             let Some(pw) = calibration.as_mut() else {
                 break rendered;
             };
@@ -298,15 +306,6 @@ impl Context<'_> {
             if !pw.corrected(db) {
                 break rendered;
             }
-        };
-        // The camera after the water (the strength calibration measured the water alone).
-        let camera = self.spec.camera;
-        let underwater = if camera.is_none() {
-            rendered
-        } else {
-            camera
-                .apply(&rendered, Camera::seed(seed))
-                .map_err(|e| e.to_string())?
         };
         let lf = reference.and_then(|(_, style)| style.light_field.as_ref());
         let name = format!("{id}.png");
@@ -339,8 +338,8 @@ impl Context<'_> {
         }
         // The pair as stored: both sides 8-bit (a calibrated pair's last render was measured).
         let strength_db = match calibration.as_ref().and_then(|pw| pw.rendered_db.last()) {
-            Some(&db) if camera.is_none() => Some(db),
-            _ => uwnr_model::water::pair_psnr(&underwater.quantised(), clean).ok(),
+            Some(&db) => Some(db),
+            None => uwnr_model::water::pair_psnr(&underwater.quantised(), clean).ok(),
         }
         .filter(|v| v.is_finite());
         Ok((params, reference_source, strength_db))
