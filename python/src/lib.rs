@@ -112,7 +112,7 @@ fn _uwnr(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add("BUNDLED_MODEL", uwnr_model::bundled_model_bytes().is_some())?;
     m.add("BUNDLED_GAN", uwnr_gan::bundled_gan_weights().is_some())?;
-    m.add("DEVICES", uwnr_model::backend_names())?;
+    m.add("DEVICES", vec![uwnr_render::ComputeDevice::Engine.name()])?;
     m.add(
         "METHODS",
         uwnr_render::MethodKind::ALL

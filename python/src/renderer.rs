@@ -205,7 +205,7 @@ impl NativeRenderer {
             image: Some(&r.image),
             style: style.as_ref(),
         });
-        let worker = JobWorker::new(self.renderer.worker().map_err(failure)?, &self.policy);
+        let worker = JobWorker::new(self.renderer.worker(), &self.policy);
         worker
             .render(&clean, &depth, input, job.seed)
             .map(|r| r.image)

@@ -14,7 +14,7 @@ use uwnr_baselines::{BackgroundPick, Method, RenderInput, quadtree_background};
 use uwnr_core::Image;
 use uwnr_core::io::{DecodeLimits, load_rgb};
 use uwnr_depth::{Depth, DepthUnit};
-use uwnr_model::{Backend, DepthResponse, Network, RenderOptions, style};
+use uwnr_model::{DepthResponse, RenderOptions, style};
 
 const DATA: &str = "../shared/data";
 /// Photos with dense measured depth, and the unit their maps are stored in (SUN RGB-D's sample

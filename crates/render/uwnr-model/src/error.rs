@@ -70,9 +70,6 @@ pub enum ModelError {
         expected: (usize, usize),
         got: (usize, usize),
     },
-    /// A device name that this build does not provide.
-    #[error("unknown device {name:?}; available: {available}")]
-    UnknownDevice { name: String, available: String },
     /// The tensor backend failed while reading data back.
     #[error("tensor backend: {0}")]
     Backend(String),

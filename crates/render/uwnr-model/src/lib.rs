@@ -4,7 +4,7 @@
 //! style and water, and whole-image inference with tiling for large photos.
 //!
 //! This crate is in the render wing: it builds without a training framework. A loaded
-//! [`Network`] runs on `uwnr-engine` ([`backend_from_name`]); the training wing (`uwnr-train`)
+//! [`Network`] runs on `uwnr-engine` ([`Backend`]); the training wing (`uwnr-train`)
 //! holds burn's module of the same network and hands it to a [`Network`] through
 //! [`Implementation`] to render with the same tiling code.
 
@@ -27,9 +27,7 @@ pub use effects::WaterEffects;
 pub use error::{ModelError, Result};
 pub use finish::{DepthResponse, DepthScale};
 pub use infer::{Forward, RenderOptions};
-pub use network::{
-    Backend, ENGINE_NAME, Implementation, Network, backend_from_name, backend_names,
-};
+pub use network::{Backend, ENGINE_NAME, Implementation, Network};
 pub use style::{ReferenceStyle, Variant, Water};
 pub use weights::{
     LoadedWeights, NamedTensor, TensorMap, WeightsDtype, WeightsFormat, WeightsInfo,

@@ -30,26 +30,9 @@ pub enum Backend {
     EngineBf16,
 }
 
-/// Names [`backend_from_name`] accepts, the default first.
-#[must_use]
-pub fn backend_names() -> Vec<&'static str> {
-    vec![ENGINE_NAME]
-}
-
-/// Name of the engine backend.
+/// Name of the engine backend, the one backend renders run on (bf16 products are
+/// [`Backend::EngineBf16`], chosen by precision rather than by name).
 pub const ENGINE_NAME: &str = "engine";
-
-/// The backend called `name`: `"engine"` (bf16 products are [`Backend::EngineBf16`], chosen by
-/// precision rather than by name).
-pub fn backend_from_name(name: &str) -> Result<Backend> {
-    if name == ENGINE_NAME {
-        return Ok(Backend::Engine);
-    }
-    Err(ModelError::UnknownDevice {
-        name: name.to_string(),
-        available: backend_names().join(", "),
-    })
-}
 
 /// A forward pass of the generator other than the engine's, handed to a [`Network`] with
 /// [`Network::from_implementation`] (the training wing's burn module is one).

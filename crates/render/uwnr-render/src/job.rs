@@ -130,8 +130,9 @@ impl RenderJob {
     }
 
     /// A per-thread handle.
-    pub fn worker(&self) -> Result<JobWorker<'_>> {
-        Ok(JobWorker::new(self.renderer.worker()?, &self.policy))
+    #[must_use]
+    pub fn worker(&self) -> JobWorker<'_> {
+        JobWorker::new(self.renderer.worker(), &self.policy)
     }
 }
 
@@ -255,7 +256,7 @@ mod tests {
         let reference = job
             .reference("r", || Ok(Arc::new(Image::filled(30, 20, 3, 0.2))))
             .unwrap();
-        let worker = job.worker().unwrap();
+        let worker = job.worker();
         let seed = job.item_seed(3);
         assert_eq!(seed, uwnr_core::seed::item_seed(7, 3));
         let a = worker
@@ -266,7 +267,6 @@ mod tests {
         let b = job
             .renderer()
             .worker()
-            .unwrap()
             .render(&clean, &depth.map, &response, Some(reference.input()), seed)
             .unwrap();
         assert_eq!(a.image, b.image);

@@ -22,7 +22,7 @@
 //! let clean = Image::filled(8, 6, 3, 0.5);
 //! let depth = Image::filled(8, 6, 1, 0.5);
 //! let response = uwnr_model::DepthResponse::default();
-//! let out = renderer.worker().unwrap().render(&clean, &depth, &response, None, 7).unwrap();
+//! let out = renderer.worker().render(&clean, &depth, &response, None, 7).unwrap();
 //! assert_eq!(out.image.size(), (8, 6));
 //! assert_eq!(out.params["method"], "haze");
 //! ```

@@ -166,7 +166,7 @@ pub enum ComputeDevice {
 }
 
 impl ComputeDevice {
-    /// The device's name, as `uwnr_model::backend_from_name` reads it.
+    /// The device's name (`engine`).
     #[must_use]
     pub const fn name(self) -> &'static str {
         match self {

@@ -2,7 +2,7 @@
 //! per-thread [`Worker`].
 
 use std::path::Path;
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 
 use serde_json::{Map, Value, json};
 use uwnr_baselines::{Method, RenderInput};
@@ -19,10 +19,11 @@ use crate::method::{
 use crate::record::{GanRecord, NetworkRecord, depth_record, fingerprint};
 use crate::revised::{self, RevisedParams};
 
-/// The UWNR network, loaded.
+/// The UWNR model, loaded.
 struct Network {
-    /// Cloned once per worker (the engine's weights are shared).
-    generator: Mutex<uwnr_model::Network>,
+    /// Cloned once per worker (cheap: the engine's weights are shared, and the bundled model has
+    /// no network).
+    generator: uwnr_model::Network,
     config: GeneratorConfig,
     options: RenderOptions,
     /// Where the weights came from (a path, or "bundled model").
@@ -36,8 +37,8 @@ struct Network {
 
 /// The GAN baseline's generator, loaded.
 struct Gan {
-    /// Cloned once per worker.
-    generator: Mutex<uwnr_gan::Generator>,
+    /// Cloned once per worker (35,003 parameters).
+    generator: uwnr_gan::Generator,
     config: uwnr_gan::GeneratorConfig,
     weights: String,
     fingerprint: String,
@@ -173,7 +174,7 @@ impl Renderer {
             spec,
             imp: Imp::Uwnr(Box::new(Network {
                 config: *generator.config(),
-                generator: Mutex::new(generator),
+                generator,
                 options,
                 weights,
                 fingerprint: fingerprint(weight_bytes),
@@ -327,20 +328,15 @@ impl Renderer {
     }
 
     /// A per-thread handle (a network is copied so that threads never share one).
-    pub fn worker(&self) -> Result<Worker<'_>> {
-        let poisoned = |what: &str| RenderError::Invalid(format!("the {what}'s lock is poisoned"));
-        Ok(Worker(match &self.imp {
+    #[must_use]
+    pub fn worker(&self) -> Worker<'_> {
+        Worker(match &self.imp {
             Imp::Uwnr(n) => WorkerImp::Uwnr {
-                generator: Box::new(n.generator.lock().map_err(|_| poisoned("network"))?.clone()),
+                generator: Box::new(n.generator.clone()),
                 net: n,
             },
             Imp::Uwgan(g) => WorkerImp::Uwgan {
-                generator: Box::new(
-                    g.generator
-                        .lock()
-                        .map_err(|_| poisoned("generator"))?
-                        .clone(),
-                ),
+                generator: Box::new(g.generator.clone()),
                 gan: g,
             },
             Imp::Baseline(m) => WorkerImp::Baseline {
@@ -349,16 +345,7 @@ impl Renderer {
             },
             Imp::Revised(p) => WorkerImp::Revised(p),
             Imp::Haze(p) => WorkerImp::Haze(p),
-        }))
-    }
-
-    /// Test hook: holds the network's lock (poisoning it when the holder panics).
-    #[doc(hidden)]
-    pub fn lock_network_for_test(&self) -> Option<std::sync::MutexGuard<'_, uwnr_model::Network>> {
-        match &self.imp {
-            Imp::Uwnr(n) => n.generator.lock().ok(),
-            _ => None,
-        }
+        })
     }
 }
 
@@ -550,7 +537,7 @@ fn load_network(s: &UwnrSpec) -> Result<Network> {
     }
     Ok(Network {
         config: *network.config(),
-        generator: Mutex::new(network),
+        generator: network,
         options: s.render_options(),
         weights,
         fingerprint: fingerprint(&bytes),
@@ -568,7 +555,7 @@ fn load_gan(s: &UwganSpec) -> Result<Gan> {
         .map_err(|e| failed("loading the UWGAN generator", e))?;
     Ok(Gan {
         config: generator.config.clone(),
-        generator: Mutex::new(generator),
+        generator,
         fingerprint: fingerprint(&bytes),
         weights,
     })

@@ -478,7 +478,7 @@ impl Engine {
         } else {
             None
         };
-        let out = job.worker()?.render(
+        let out = job.worker().render(
             &clean,
             &depth,
             prepared

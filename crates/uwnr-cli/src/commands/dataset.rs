@@ -213,13 +213,8 @@ fn make(a: &DatasetMakeArgs) -> Result<ExitCode> {
             "fix the inputs listed in failed.jsonl, then run the same command again to finish"
         };
         eprintln!(
-            "uwnr: incomplete: {made} of {} planned pairs made{}; {next}",
-            summary.planned,
-            summary
-                .worker_errors
-                .first()
-                .map(|e| format!(" (a worker could not start: {e})"))
-                .unwrap_or_default()
+            "uwnr: incomplete: {made} of {} planned pairs made; {next}",
+            summary.planned
         );
     }
     Ok(if summary.ok() {

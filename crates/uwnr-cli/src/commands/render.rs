@@ -95,7 +95,7 @@ pub fn run(a: &RenderArgs) -> Result<ExitCode> {
     let render_job = RenderJob::new(Arc::new(renderer), policy, a.seed, refs.len())?;
 
     let limits = DecodeLimits::default();
-    let worker = render_job.worker()?;
+    let worker = render_job.worker();
     let mut batch = Batch::new(jobs.len(), "rendering");
     for (index, job) in jobs.iter().enumerate() {
         let clean_path = &cleans[job.clean];

@@ -11,7 +11,7 @@ use uwnr_core::Image;
 use uwnr_core::io::{DecodeLimits, load_rgb};
 use uwnr_core::resize::resize_bilinear;
 use uwnr_depth::{Depth, DepthUnit};
-use uwnr_model::{Backend, DepthResponse, Network, RenderOptions};
+use uwnr_model::{DepthResponse, Network, RenderOptions};
 
 /// Smallest mean change between depth 0 and depth 1, in code values.
 const MIN_CHANGE: f64 = 15.0;

@@ -133,9 +133,6 @@ pub struct Summary {
     pub interrupted: bool,
     /// Every owned pair is in the manifest.
     pub complete: bool,
-    /// Why workers could not start (each one that did not adds a line). With none left, pairs
-    /// stay unmade without failing: the run is then incomplete.
-    pub worker_errors: Vec<String>,
     /// PSNR(underwater, clean) over every pair in the manifest (this run's and earlier ones').
     pub strength: Option<StrengthSummary>,
     /// Annotations dropped under the label rules ([`crate::labels::rules`]) over every pair in
@@ -156,7 +153,6 @@ impl Summary {
 enum Msg {
     Pair(Box<Record>),
     Failed(Failure),
-    WorkerFailed(String),
 }
 
 /// Per-reference light fields, each computed once; `Err` for unreadable references.
@@ -464,13 +460,7 @@ fn generate_in(
             let tx = tx.clone();
             let (ctx, todo, next) = (&ctx, &todo, &next);
             scope.spawn(move || {
-                let worker = match renderer.worker() {
-                    Ok(w) => JobWorker::new(w, &spec.depth_policy),
-                    Err(e) => {
-                        let _ = tx.send(Msg::WorkerFailed(e.to_string()));
-                        return;
-                    }
-                };
+                let worker = JobWorker::new(renderer.worker(), &spec.depth_policy);
                 loop {
                     if ctx.stop.load(Ordering::Relaxed) {
                         break;
@@ -503,10 +493,6 @@ fn generate_in(
                 Msg::Failed(f) => {
                     observer(Event::Failed(&f));
                     summary.failures.push(f);
-                }
-                Msg::WorkerFailed(e) => {
-                    observer(Event::Note(&format!("a worker could not start: {e}")));
-                    summary.worker_errors.push(e);
                 }
             }
         }

@@ -50,7 +50,7 @@ fn an_optional_reference_is_used_when_given_and_sampled_without() {
     let clean = Image::filled(16, 12, 3, 0.5);
     let depth = Image::filled(16, 12, 1, 0.5);
     let response = DepthResponse::default();
-    let worker = r.worker().unwrap();
+    let worker = r.worker();
     let without = worker.render(&clean, &depth, &response, None, 3).unwrap();
     assert_eq!(without.params["coefficients"]["mode"], "sampled");
     let given: Map<String, Value> =
@@ -60,7 +60,6 @@ fn an_optional_reference_is_used_when_given_and_sampled_without() {
     let needs = Renderer::load(MethodSpec::defaults(MethodKind::Uisa, true)).unwrap();
     let e = needs
         .worker()
-        .unwrap()
         .render(&clean, &depth, &response, None, 3)
         .err()
         .unwrap();
@@ -85,7 +84,6 @@ fn the_network_reads_the_style_the_baselines_the_image() {
     let depth = Image::filled(32, 32, 1, 0.5);
     let out = net
         .worker()
-        .unwrap()
         .render(
             &clean,
             &depth,

@@ -106,7 +106,7 @@ fn the_engine_matches_burn_for_the_anchored_variant() {
         assert!(d < 1e-4, "{opts:?}: engine vs flex {d}");
     }
     // A style without water is refused by name.
-    let bare = ReferenceStyle::from_light_field(style.light_field.clone());
+    let bare = ReferenceStyle::from_light_field(style.light_field.clone().unwrap());
     let err = engine
         .render(&clean, &depth, &bare, &RenderOptions::default())
         .unwrap_err();
@@ -134,7 +134,7 @@ fn a_fresh_anchored_model_is_the_colour_transfer_at_the_reference_depth() {
             },
         )
         .unwrap();
-    let lf = resize_bilinear(&style.light_field, 48, 32).unwrap();
+    let lf = resize_bilinear(style.light_field.as_ref().unwrap(), 48, 32).unwrap();
     let want = anchor(&clean, style.water.as_ref().unwrap(), &lf, |im| {
         Ok(light_field_for_with(im, 48, 32, LightFieldMap::Absolute)?)
     })
@@ -351,7 +351,7 @@ fn a_fresh_detail_retaining_model_renders_its_anchor() {
             &absolute,
         )
         .unwrap();
-    let lf = resize_bilinear(&style.light_field, 48, 32).unwrap();
+    let lf = resize_bilinear(style.light_field.as_ref().unwrap(), 48, 32).unwrap();
     let lf_of = |im: &Image| Ok(light_field_for_with(im, 48, 32, LightFieldMap::Absolute)?);
     let water = style.water.unwrap();
     let want = anchor(&clean, &water, &lf, lf_of).unwrap();
