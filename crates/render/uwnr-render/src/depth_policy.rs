@@ -59,6 +59,11 @@ impl Default for DepthPolicy {
     }
 }
 
+/// Largest scene scale, metres. Over it even the clearest ocean water, Jerlov type I, which keeps
+/// 98.2 % of blue light a metre, keeps 1e-8 of the scene: every method's render is its veiling
+/// light alone.
+pub const MAX_SCENE_SCALE_M: f32 = 1000.0;
+
 /// Salt of the scene-scale draw, so that it is independent of the methods' own draws from the
 /// pair's seed.
 const SCALE_SALT: u64 = 0x5CE7_E5CA_1E00_0001;
@@ -83,6 +88,12 @@ impl DepthPolicy {
         if !(lo.is_finite() && hi.is_finite() && lo > 0.0 && lo <= hi) {
             return Err(RenderError::Invalid(format!(
                 "the scene scale range {lo},{hi} must be positive metres with MIN <= MAX"
+            )));
+        }
+        if hi > MAX_SCENE_SCALE_M {
+            return Err(RenderError::Invalid(format!(
+                "the scene scale range {lo},{hi}: at most {MAX_SCENE_SCALE_M} metres (past it a \
+                 render is its veiling light alone)"
             )));
         }
         DepthResponse {
@@ -117,6 +128,22 @@ impl DepthPolicy {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_scene_scale_past_any_water_is_refused() {
+        for (lo, hi) in [(1.0, 1001.0), (1e30, 1e31), (1.0, f32::INFINITY)] {
+            let p = DepthPolicy {
+                scene_scale_m: (lo, hi),
+                ..DepthPolicy::render()
+            };
+            assert!(p.validate().is_err(), "{lo},{hi}");
+        }
+        let p = DepthPolicy {
+            scene_scale_m: (1.0, MAX_SCENE_SCALE_M),
+            ..DepthPolicy::render()
+        };
+        assert!(p.validate().is_ok());
+    }
 
     #[test]
     fn scene_scales_are_drawn_in_the_range_from_the_seed() {

@@ -40,7 +40,9 @@ pub mod renderer;
 pub mod revised;
 
 pub use camera::Camera;
-pub use depth_policy::{DATASET_PRIOR_TRUST, DATASET_SCENE_SCALE_M, DepthPolicy};
+pub use depth_policy::{
+    DATASET_PRIOR_TRUST, DATASET_SCENE_SCALE_M, DepthPolicy, MAX_SCENE_SCALE_M,
+};
 pub use error::{RenderError, Result};
 pub use haze::HazeParams;
 pub use job::{JobWorker, RenderJob};

@@ -94,15 +94,11 @@ pub fn page_spec(o: &MethodOptions) -> Result<MethodSpec> {
         .map_err(|e| ServeError::BadRequest(e.to_string()))
 }
 
-/// Largest scene scale (`--depth-scale`) the page renders, metres. Over it even the clearest
-/// ocean water, Jerlov type I, which keeps 98.2 % of blue light a metre, keeps 1e-8 of the scene:
-/// every method's render is its veiling light alone.
-pub const MAX_DEPTH_SCALE_M: f32 = 1000.0;
-
 /// The depth policy a render of the page's options uses: `uwnr render`'s, with `--depth-scale`
 /// as its scene scale in the `f32` metres renders use, checked there by the check every render
-/// job's policy gets ([`DepthPolicy::validate`]) and within [`MAX_DEPTH_SCALE_M`]. So a range
-/// that only `f64` holds, or past any water, is refused when it is asked for.
+/// job's policy gets ([`DepthPolicy::validate`], which bounds it by
+/// `uwnr_render::MAX_SCENE_SCALE_M`). So a range that only `f64` holds, or past any water, is
+/// refused when it is asked for.
 pub fn page_policy(o: &MethodOptions) -> Result<DepthPolicy> {
     let mut policy = DepthPolicy::render();
     let Some((a, b)) = o.depth_scale else {
@@ -112,11 +108,6 @@ pub fn page_policy(o: &MethodOptions) -> Result<DepthPolicy> {
     policy.scene_scale_m = (a as f32, b as f32);
     let bad = |why: String| ServeError::BadRequest(format!("--depth-scale {a},{b}: {why}"));
     policy.validate().map_err(|e| bad(e.to_string()))?;
-    if policy.scene_scale_m.1 > MAX_DEPTH_SCALE_M {
-        return Err(bad(format!(
-            "at most {MAX_DEPTH_SCALE_M} metres (past it a render is its veiling light alone)"
-        )));
-    }
     Ok(policy)
 }
 
