@@ -7,9 +7,9 @@
 //! - **light from above**: the surface lights the top of the frame, the bottom is darker
 //!   (brightness `1 + a (1/2 - y / h)`);
 //! - **vignette**: light falling off from the centre (`1 - v r^2`, `r` 1 at the corners);
-//! - **absorb**: colours the water removes: the chroma that is not the veil's hue (across it, or
-//!   opposite it: a red flower or a blue sky under green water) is cut by `absorb`, half of it
-//!   near and all of it at the farthest point, while the chroma towards the veil's hue stays;
+//! - **absorb**: colours the water removes: the chroma opposite the veil's hue (a red flower or a
+//!   blue sky under green water) is cut by `absorb`, half of it near and all of it at the
+//!   farthest point, while the chroma towards the veil's hue and across it stays;
 //! - **forward scattering**: light scattered at small angles on its way from the subject, a
 //!   point spread that widens with distance (Ismiroglou et al., "Sea-ing Through Scattered Rays",
 //!   the revised image formation model with forward scattering): each pixel mixes with its blur,
@@ -78,14 +78,13 @@ impl WaterEffects {
 
     /// uwnr's default (`docs/RESULTS.md`, "Realism"): particles, which alone took FID from 217.5
     /// to 210.5 on the realism protocol, with light from above, absorbed colours and forward
-    /// scattering, which water has and which cost nothing there (207.8 together). Absorption is
-    /// at 0.25: at 0.5 the pairs' colour cast pointed less at their references' (cosine 0.887,
-    /// 0.913 at 0.25, 0.940 without). The medium and the vignette made realism worse and are off.
+    /// scattering, which water has and which cost nothing there (207.6 together). The medium and
+    /// the vignette made realism worse and are off.
     pub const DEFAULT: Self = Self {
         particles: 80.0,
         light_from_above: 0.6,
         vignette: 0.0,
-        absorb: 0.25,
+        absorb: 0.5,
         forward_scatter: 0.3,
         medium: 0.0,
     };
@@ -191,7 +190,7 @@ fn relative(d: &[f32]) -> Vec<f32> {
         .collect()
 }
 
-/// The chroma across and opposite the veil's hue cut by `a (1 + d) / 2`.
+/// The chroma opposite the veil's hue cut by `a (1 + d) / 2`.
 fn absorb(img: &mut Image, d: &[f32], veil: [f32; 3], a: f32) {
     let vm = (veil[0] + veil[1] + veil[2]) / 3.0;
     let mut u = veil.map(|v| v - vm);
@@ -206,14 +205,12 @@ fn absorb(img: &mut Image, d: &[f32], veil: [f32; 3], a: f32) {
     for (i, &di) in d.iter().enumerate() {
         let px = [data[i], data[n + i], data[2 * n + i]];
         let y = (px[0] + px[1] + px[2]) / 3.0;
-        let chroma = px.map(|v| v - y);
-        let along = chroma[0] * u[0] + chroma[1] * u[1] + chroma[2] * u[2];
+        let along = (px[0] - y) * u[0] + (px[1] - y) * u[1] + (px[2] - y) * u[2];
         let keep = 1.0 - a * 0.5 * (1.0 + di);
-        // Towards the veil's hue stays; opposite it goes like the rest.
-        let kept_along = along.max(0.0) + keep * along.min(0.0);
+        // Towards the veil's hue and across it stays; opposite it goes.
+        let cut = (1.0 - keep) * along.min(0.0);
         for c in 0..3 {
-            let par = along * u[c];
-            data[c * n + i] = y + kept_along * u[c] + keep * (chroma[c] - par);
+            data[c * n + i] = px[c] - cut * u[c];
         }
     }
 }
