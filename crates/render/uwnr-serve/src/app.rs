@@ -14,8 +14,7 @@ use crate::error::{Result, ServeError};
 use crate::http::{Request, Response, Service};
 use crate::jobs::Pool;
 use crate::view::{
-    CleanSource, DepthChoice, PAGE_METHODS, RenderSize, ViewRequest, command_line, page_policy,
-    page_spec, reads_reference,
+    CleanSource, DepthChoice, PAGE_METHODS, PageRender, RenderSize, ViewRequest, command_line,
 };
 
 /// Largest reference page.
@@ -45,7 +44,7 @@ fn allowed(segments: &[&str]) -> Option<&'static str> {
 /// The engine and its pool: what every request handler shares.
 pub struct App {
     pub engine: Arc<Engine>,
-    pub pool: Arc<Pool<ViewRequest>>,
+    pub pool: Arc<Pool<PageRender>>,
     pub access: Access,
 }
 
@@ -232,10 +231,9 @@ impl App {
             ["api", "render"] => {
                 let view: ViewRequest = serde_json::from_slice(&req.body)
                     .map_err(|x| ServeError::BadRequest(format!("bad render request: {x}")))?;
-                page_spec(&view.options)?;
-                page_policy(&view.options)?;
-                let (render, dataset, notes) = commands(e, &view)?;
-                let id = self.pool.submit(&view.view.clone(), view)?;
+                let page = PageRender::new(view)?;
+                let (render, dataset, notes) = commands(e, &page)?;
+                let id = self.pool.submit(&page.view.view.clone(), page)?;
                 Response::json(
                     200,
                     &json!({ "job": id, "render_command": render, "dataset_command": dataset, "notes": notes }),
@@ -324,7 +322,8 @@ fn parse_job(s: &str) -> Result<u64> {
 
 /// The `uwnr render` and `uwnr dataset` commands of a request, and notes on what they
 /// cannot say.
-pub fn commands(e: &Engine, req: &ViewRequest) -> Result<(String, String, Vec<String>)> {
+pub fn commands(e: &Engine, page: &PageRender) -> Result<(String, String, Vec<String>)> {
+    let req = &page.view;
     let mut notes = Vec::new();
     let clean_name = e.clean_name(&req.clean)?;
     if matches!(req.clean, CleanSource::Upload(_)) {
@@ -350,7 +349,7 @@ pub fn commands(e: &Engine, req: &ViewRequest) -> Result<(String, String, Vec<St
     };
     let mut render = vec!["uwnr".to_string(), "render".to_string(), clean_name.clone()];
     let mut out_name = format!("uwnr-{}", stem(&clean_name));
-    if reads_reference(o)? {
+    if page.reads_reference() {
         let i = req
             .reference
             .ok_or_else(|| ServeError::BadRequest("select a reference".into()))?;

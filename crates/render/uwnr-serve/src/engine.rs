@@ -32,7 +32,7 @@ use crate::error::{Result, ServeError};
 use crate::jobs::Output;
 use crate::paths::{Library, read_inside};
 use crate::uploads::{Uploads, display_name};
-use crate::view::{CleanSource, DepthChoice, RenderSize, ViewRequest, page_policy, page_spec};
+use crate::view::{CleanSource, DepthChoice, PageRender, RenderSize};
 
 /// Longer side of reference thumbnails, pixels.
 pub const THUMB_SIDE: usize = 160;
@@ -444,10 +444,9 @@ impl Engine {
     }
 
     /// Renders a request (what the pool's workers run).
-    pub fn render(&self, req: &ViewRequest) -> Result<Output> {
-        let spec = page_spec(&req.options)?;
-        let policy = page_policy(&req.options)?;
-        let job = self.job(&spec, policy)?;
+    pub fn render(&self, page: &PageRender) -> Result<Output> {
+        let req = &page.view;
+        let job = self.job(&page.spec, page.policy)?;
         // The render's planes are counted before the clean image is decoded.
         let pixels = match req.size {
             RenderSize::Preview => (self.config.preview_size * self.config.preview_size) as u64,
@@ -466,7 +465,7 @@ impl Engine {
             let i = req.reference.ok_or_else(|| {
                 ServeError::BadRequest(format!(
                     "method {} needs a reference: select one",
-                    spec.name()
+                    page.spec.name()
                 ))
             })?;
             // Decoding errors keep their own kind; the decoded image is shared, not copied.

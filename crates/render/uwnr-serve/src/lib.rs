@@ -37,7 +37,7 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 pub use error::{Result, ServeError};
-pub use view::{MethodOptions, ViewRequest};
+pub use view::{MethodOptions, PageRender, ViewRequest};
 
 use crate::access::Access;
 use crate::app::App;
@@ -164,8 +164,8 @@ impl Server {
         let (workers, queue) = (config.workers, config.queue);
         let engine = Arc::new(Engine::new(config, budget.clone())?);
         let runner_engine = engine.clone();
-        let runner: Arc<Runner<ViewRequest>> =
-            Arc::new(move |req: &ViewRequest| runner_engine.render(req).map_err(|e| e.to_string()));
+        let runner: Arc<Runner<PageRender>> =
+            Arc::new(move |req: &PageRender| runner_engine.render(req).map_err(|e| e.to_string()));
         let pool = Pool::start(workers, queue, runner)?;
         let app = Arc::new(App {
             engine,

@@ -116,6 +116,34 @@ pub fn reads_reference(o: &MethodOptions) -> Result<bool> {
     Ok(page_spec(o)?.reference_use() != ReferenceUse::Ignored)
 }
 
+/// A render request with its method and depth policy, read from its options once, when the
+/// request arrives: the handler, the command lines it answers with and the pool's worker all use
+/// these.
+#[derive(Clone, Debug)]
+pub struct PageRender {
+    /// The request as the page sent it.
+    pub view: ViewRequest,
+    /// Its method ([`page_spec`]).
+    pub spec: MethodSpec,
+    /// Its depth policy ([`page_policy`]).
+    pub policy: DepthPolicy,
+}
+
+impl PageRender {
+    /// Reads `view`'s options, refusing what the page does not render.
+    pub fn new(view: ViewRequest) -> Result<Self> {
+        let spec = page_spec(&view.options)?;
+        let policy = page_policy(&view.options)?;
+        Ok(Self { view, spec, policy })
+    }
+
+    /// Whether the render reads the reference.
+    #[must_use]
+    pub fn reads_reference(&self) -> bool {
+        self.spec.reference_use() != ReferenceUse::Ignored
+    }
+}
+
 /// `s` quoted for a POSIX shell when it needs to be.
 #[must_use]
 pub fn shell_quote(s: &str) -> String {
