@@ -45,7 +45,7 @@ const MEDIUM_GRID: usize = 5;
 /// Largest share of the way to the veil (or away from it) the medium moves a pixel.
 const MEDIUM_LIMIT: f32 = 0.9;
 /// Mixed into the render's seed for the effects' draws (a stream of their own).
-const EFFECTS_STREAM: u64 = 0x5EA_5A0_77;
+const EFFECTS_STREAM: u64 = 0x5EA5_A077;
 
 /// The stages and their strengths (module doc); all 0 is no stage at all.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -150,10 +150,10 @@ impl WaterEffects {
         // Drawn whether or not the medium runs, so the particles do not move with it.
         let field = smooth_field(w, h, &mut rng);
         if self.medium > 0.0 {
-            for c in 0..3 {
+            for (c, &b) in veil.iter().enumerate() {
                 for (v, f) in img.plane_mut(c).iter_mut().zip(&field) {
                     let share = (self.medium * f).clamp(-MEDIUM_LIMIT, MEDIUM_LIMIT);
-                    *v += share * (veil[c] - *v);
+                    *v += share * (b - *v);
                 }
             }
         }
@@ -176,7 +176,7 @@ fn relative(d: &[f32]) -> Vec<f32> {
         .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &v| {
             (lo.min(v), hi.max(v))
         });
-    if !(hi > lo) {
+    if hi.partial_cmp(&lo) != Some(std::cmp::Ordering::Greater) {
         return vec![0.0; d.len()];
     }
     d.iter()
@@ -338,7 +338,11 @@ mod tests {
         let mut img = Image::filled(w, h, 3, 0.0);
         for c in 0..3 {
             for (i, v) in img.plane_mut(c).iter_mut().enumerate() {
-                *v = if (i % w / 2) % 2 == 0 { 0.8 } else { 0.2 };
+                *v = if (i % w / 2).is_multiple_of(2) {
+                    0.8
+                } else {
+                    0.2
+                };
             }
         }
         img
