@@ -9,8 +9,8 @@
 //! line, `uwnr_model::water::calibrate`, to reach it on that photo (within a factor of 1.5).
 //! That first scale counts the water alone; depth (farther is hazier), detail retention and the
 //! camera's noise move the render farther still (0.8 dB on average with the bundled bank, 1.8
-//! with `uieb-train` as the target, before the correction), and so do uwnr's effects and the
-//! dataset's camera stage, so the dataset measures the render as it will be stored and corrects the scale by the same closed form until it is within 0.25 dB of its target, in at
+//! with `uieb-train` as the target, before the correction), and so do uwnr's effects, so the
+//! dataset measures the render (before the camera stage, which it then applies once) and corrects the scale by the same closed form until it is within 0.25 dB of its target, in at
 //! most three renders ([`PairWater::corrected`]):
 //!
 //! - no target: the strengths of the real pairs the bundled water bank was fitted on (UIEB's and

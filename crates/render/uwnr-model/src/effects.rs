@@ -76,16 +76,17 @@ impl WaterEffects {
         medium: 0.0,
     };
 
-    /// uwnr's default (`docs/RESULTS.md`, "Realism"): particles, which alone took FID from 217.5
-    /// to 210.5 on the realism protocol, with light from above, absorbed colours and forward
-    /// scattering, which water has and which cost nothing there (207.6 together). The medium and
-    /// the vignette made realism worse and are off.
+    /// uwnr's default (`docs/RESULTS.md`, "Realism"): particles, which alone took FID from 217.6
+    /// to 210.3 on the realism protocol, with light from above and absorbed colours, which water
+    /// has and which moved it by about a point either way. Forward scattering (no change alone,
+    /// 217.2) is off: its two blurs per channel cost a third of a dataset's time per pair. The
+    /// medium and the vignette made realism worse and are off.
     pub const DEFAULT: Self = Self {
         particles: 80.0,
         light_from_above: 0.6,
         vignette: 0.0,
         absorb: 0.5,
-        forward_scatter: 0.3,
+        forward_scatter: 0.0,
         medium: 0.0,
     };
 

@@ -60,7 +60,9 @@ fn strength_is_reported_per_pair_and_for_the_folder() {
     let tmp = tempfile::tempdir().unwrap();
     let (clean, refs) = inputs(tmp.path());
     let out = tmp.path().join("out");
-    let o = dataset(&clean, &refs, &out, &[]);
+    // The calibration measures the render before the camera stage, so the calibration is checked
+    // without one; with the camera, each pair records its strength as stored (below).
+    let o = dataset(&clean, &refs, &out, &["--camera", "none"]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(
         stderr(&o).contains("strength PSNR(underwater, clean) over 6 pairs: mean"),
@@ -124,13 +126,27 @@ fn strength_is_reported_per_pair_and_for_the_folder() {
     let mean = strength["mean"].as_f64().unwrap();
     assert!((mean - sum / 6.0).abs() < 1e-3, "{mean} {}", sum / 6.0);
     // A resume of the finished folder is accepted (the strength is not a setting).
-    let o = dataset(&clean, &refs, &out, &[]);
+    let o = dataset(&clean, &refs, &out, &["--camera", "none"]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(
         stderr(&o).contains("0 rendered, 6 skipped"),
         "{}",
         stderr(&o)
     );
+    // With the camera (the default), every pair records the strength of its files.
+    let cam = tmp.path().join("camera");
+    let o = dataset(&clean, &refs, &cam, &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let limits = uwnr_core::io::DecodeLimits::default();
+    let manifest = std::fs::read_to_string(cam.join("manifest.jsonl")).unwrap();
+    for line in manifest.lines() {
+        let r: serde_json::Value = serde_json::from_str(line).unwrap();
+        let load =
+            |k: &str| uwnr_core::io::load_rgb(&cam.join(r[k].as_str().unwrap()), &limits).unwrap();
+        let db = uwnr_model::water::pair_psnr(&load("underwater"), &load("clean")).unwrap();
+        let recorded = r["strength_db"].as_f64().unwrap();
+        assert!((f64::from(db) - recorded).abs() < 1e-3, "{db} {recorded}");
+    }
 }
 
 #[test]

@@ -288,16 +288,9 @@ impl Context<'_> {
                 image: reference_image.as_ref(),
                 style: Some(calibrated.as_ref().unwrap_or(lf)),
             });
-            let mut rendered = worker
+            let rendered = worker
                 .render(clean, depth, input, seed)
                 .map_err(|e| e.to_string())?;
-            // The camera after the water, inside the calibration: the pair as stored is what
-            // reaches its target strength.
-            if !camera.is_none() {
-                rendered.image = camera
-                    .apply(&rendered.image, Camera::seed(seed))
-                    .map_err(|e| e.to_string())?;
-            }
             let Some(pw) = calibration.as_mut() else {
                 break rendered;
             };
@@ -306,6 +299,17 @@ impl Context<'_> {
             if !pw.corrected(db) {
                 break rendered;
             }
+        };
+        // The camera once, after the calibration (which measured the render before it: the
+        // camera's noise moves a pair by a tenth of a dB or so, and applying it in every
+        // calibration round cost a third of a dataset's time); the pair records its strength as
+        // stored.
+        let underwater = if camera.is_none() {
+            underwater
+        } else {
+            camera
+                .apply(&underwater, Camera::seed(seed))
+                .map_err(|e| e.to_string())?
         };
         let lf = reference.and_then(|(_, style)| style.light_field.as_ref());
         let name = format!("{id}.png");
@@ -338,8 +342,8 @@ impl Context<'_> {
         }
         // The pair as stored: both sides 8-bit (a calibrated pair's last render was measured).
         let strength_db = match calibration.as_ref().and_then(|pw| pw.rendered_db.last()) {
-            Some(&db) => Some(db),
-            None => uwnr_model::water::pair_psnr(&underwater.quantised(), clean).ok(),
+            Some(&db) if camera.is_none() => Some(db),
+            _ => uwnr_model::water::pair_psnr(&underwater.quantised(), clean).ok(),
         }
         .filter(|v| v.is_finite());
         Ok((params, reference_source, strength_db))
