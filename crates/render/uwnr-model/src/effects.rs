@@ -275,8 +275,8 @@ fn smooth_field(w: usize, h: usize, rng: &mut ChaCha8Rng) -> Vec<f32> {
     field
 }
 
-/// A standard normal draw (Box-Muller).
-fn normal(rng: &mut ChaCha8Rng) -> f32 {
+/// A standard normal draw (Box-Muller), for the effects and the dataset's camera noise.
+pub fn normal(rng: &mut ChaCha8Rng) -> f32 {
     let u1: f64 = rng.random::<f64>().max(f64::MIN_POSITIVE);
     let u2: f64 = rng.random();
     ((-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()) as f32

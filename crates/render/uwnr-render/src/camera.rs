@@ -20,7 +20,7 @@ use std::io::Cursor;
 
 use image::ImageEncoder;
 use image::codecs::jpeg::JpegEncoder;
-use rand::{Rng, SeedableRng};
+use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 use uwnr_core::Image;
@@ -148,7 +148,7 @@ impl Camera {
             let (read2, shot2) = (self.read_noise.powi(2), self.shot_noise.powi(2));
             for v in out.data_mut() {
                 let std = (read2 + shot2 * v.clamp(0.0, 1.0)).sqrt() / 255.0;
-                *v += std * normal(&mut rng);
+                *v += std * uwnr_model::effects::normal(&mut rng);
             }
         }
         out.clamp01();
@@ -183,13 +183,6 @@ fn interleaved_u8(img: &Image) -> Vec<u8> {
         .iter()
         .map(|&v| uwnr_core::image::quantise_u8(v))
         .collect()
-}
-
-/// A standard normal draw (Box-Muller).
-fn normal(rng: &mut ChaCha8Rng) -> f32 {
-    let u1: f64 = rng.random::<f64>().max(f64::MIN_POSITIVE);
-    let u2: f64 = rng.random();
-    ((-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()) as f32
 }
 
 #[cfg(test)]
