@@ -148,9 +148,11 @@ impl WaterEffects {
         if self.forward_scatter > 0.0 {
             forward_scatter(img, &d, self.forward_scatter, unit);
         }
-        // Drawn whether or not the medium runs, so the particles do not move with it.
-        let field = smooth_field(w, h, &mut rng);
+        // The medium's nodes are drawn whether or not it runs, so the particles do not move with
+        // it; the field is spread over the frame only when it runs.
+        let nodes = medium_nodes(&mut rng);
         if self.medium > 0.0 {
+            let field = smooth_field(&nodes, w, h);
             for (c, &b) in veil.iter().enumerate() {
                 for (v, f) in img.plane_mut(c).iter_mut().zip(&field) {
                     let share = (self.medium * f).clamp(-MEDIUM_LIMIT, MEDIUM_LIMIT);
@@ -233,12 +235,16 @@ fn forward_scatter(img: &mut Image, d: &[f32], strength: f32, unit: f32) {
     }
 }
 
-/// A smooth field over the frame with standard deviation 1: normal draws on a grid,
-/// interpolated with smoothstep weights.
-fn smooth_field(w: usize, h: usize, rng: &mut ChaCha8Rng) -> Vec<f32> {
-    let nodes: Vec<f32> = (0..MEDIUM_GRID * MEDIUM_GRID)
+/// The medium's grid of normal draws.
+fn medium_nodes(rng: &mut ChaCha8Rng) -> Vec<f32> {
+    (0..MEDIUM_GRID * MEDIUM_GRID)
         .map(|_| normal(rng))
-        .collect();
+        .collect()
+}
+
+/// A smooth field over the frame with standard deviation 1: the grid's `nodes` interpolated
+/// with smoothstep weights.
+fn smooth_field(nodes: &[f32], w: usize, h: usize) -> Vec<f32> {
     let last = (MEDIUM_GRID - 1) as f32;
     let axis = |i: usize, n: usize| {
         let t = if n > 1 {
@@ -261,14 +267,8 @@ fn smooth_field(w: usize, h: usize, rng: &mut ChaCha8Rng) -> Vec<f32> {
             field.push(top + (bottom - top) * fy);
         }
     }
-    let n = field.len().max(1) as f64;
-    let mean = field.iter().map(|&v| f64::from(v)).sum::<f64>() / n;
-    let var = field
-        .iter()
-        .map(|&v| (f64::from(v) - mean).powi(2))
-        .sum::<f64>()
-        / n;
-    let scale = if var > 1e-12 { 1.0 / var.sqrt() } else { 0.0 };
+    let (mean, std) = crate::style::mean_std(&field);
+    let scale = if std > 1e-6 { 1.0 / std } else { 0.0 };
     field
         .iter_mut()
         .for_each(|v| *v = ((f64::from(*v) - mean) * scale) as f32);
@@ -401,7 +401,7 @@ mod tests {
         };
         assert_eq!(run(7), run(7));
         assert_ne!(run(7), run(8));
-        let field = smooth_field(w, h, &mut ChaCha8Rng::seed_from_u64(1));
+        let field = smooth_field(&medium_nodes(&mut ChaCha8Rng::seed_from_u64(1)), w, h);
         let mean = field.iter().sum::<f32>() / field.len() as f32;
         let var = field.iter().map(|v| (v - mean).powi(2)).sum::<f32>() / field.len() as f32;
         assert!(

@@ -393,7 +393,7 @@ pub fn retain_detail_with(anchor: Image, reference: [f32; 3], noise_floor: f64) 
 }
 
 /// Mean and standard deviation of a plane.
-fn mean_std(p: &[f32]) -> (f64, f64) {
+pub(crate) fn mean_std(p: &[f32]) -> (f64, f64) {
     let n = p.len().max(1) as f64;
     let mean = p.iter().map(|&v| f64::from(v)).sum::<f64>() / n;
     let var = p
