@@ -186,7 +186,7 @@ impl MethodOptions {
     /// Sets the options on `spec` (the method's defaults or a `--method-config`); options the
     /// method does not have are left alone (a run of several methods sets each its own; refuse
     /// the others first with [`Self::refuse_inapplicable`]).
-    pub fn apply(&self, spec: &mut MethodSpec) {
+    fn apply(&self, spec: &mut MethodSpec) {
         match spec {
             MethodSpec::Uwnr(s) => s.precision = self.precision,
             MethodSpec::Jerlov(p) => {
@@ -245,30 +245,45 @@ impl MethodOptions {
         }
     }
 
-    /// The method's defaults with the options set, as `uwnr render` builds it (`have_reference`:
-    /// a reference is given, so Sea-thru fits its coefficients to it unless told otherwise).
-    pub fn spec(&self, have_reference: bool) -> Result<MethodSpec> {
-        let mut spec = MethodSpec::defaults(self.method, have_reference);
-        let fitted = match self.seathru {
+    /// Whether Sea-thru takes its coefficients from the reference when these options are set on
+    /// `base` (the method's defaults or a `--method-config`): then the fit gives the distance, and
+    /// `--depth-scale` does not apply ([`Self::refuse_inapplicable`]).
+    #[must_use]
+    pub fn seathru_fitted(&self, base: &MethodSpec) -> bool {
+        match self.seathru {
             Some(s) => s == SeathruSource::Reference,
             None => matches!(
-                &spec,
+                base,
                 MethodSpec::Seathru(p)
                     if matches!(p.coefficients, SeathruCoefficients::FromReference(_))
             ),
-        };
-        self.refuse_inapplicable(&[self.method], fitted)?;
-        self.apply(&mut spec);
-        if !self.method.loads_weights()
-            && spec.reference_use() == ReferenceUse::Required
-            && !have_reference
-        {
+        }
+    }
+
+    /// The method's defaults with the options set, as `uwnr render` builds it (`have_reference`:
+    /// a reference is given, so Sea-thru fits its coefficients to it unless told otherwise).
+    /// Options the method lacks are refused.
+    pub fn spec(&self, have_reference: bool) -> Result<MethodSpec> {
+        let base = MethodSpec::defaults(self.method, have_reference);
+        self.refuse_inapplicable(&[self.method], self.seathru_fitted(&base))?;
+        self.spec_over(base, have_reference)
+    }
+
+    /// The options set on `base` (the method's defaults or a `--method-config`), refused when the
+    /// render needs a reference and none is given: the one place `uwnr render`, `dataset`,
+    /// `experiment` and the page check it before anything loads. Callers refuse the options
+    /// none of their methods has first ([`Self::refuse_inapplicable`]; a run of several
+    /// methods sets each method its own and leaves it the others).
+    pub fn spec_over(&self, mut base: MethodSpec, have_reference: bool) -> Result<MethodSpec> {
+        self.apply(&mut base);
+        if base.reference_use() == ReferenceUse::Required && !have_reference {
             return Err(invalid(format!(
-                "--method {} needs --reference",
+                "--method {} needs a reference, a real underwater image whose water is rendered \
+                 (--reference; --references for a dataset)",
                 self.method
             )));
         }
-        Ok(spec)
+        Ok(base)
     }
 
     /// The flags of `uwnr render` and `uwnr dataset` that set these options (`--method` first;
@@ -398,7 +413,9 @@ mod tests {
             err(r#"{"method":"seathru","beta_d":[1,1,1]}"#, true).contains("need --seathru given")
         );
         assert!(err(r#"{"method":"jerlov","depth_scale":[4,2]}"#, true).contains("MIN <= MAX"));
-        assert!(err(r#"{"method":"reinhard"}"#, false).contains("needs --reference"));
+        assert!(err(r#"{"method":"reinhard"}"#, false).contains("needs a reference"));
+        assert!(err(r#"{"method":"uwnr"}"#, false).contains("needs a reference"));
+        assert!(options(r#"{"method":"uwgan"}"#).spec(false).is_ok());
         // Several methods: an option one of them has is accepted.
         let o = options(r#"{"method":"uisa","water_type":"3C"}"#);
         assert!(

@@ -37,6 +37,21 @@ pub fn options(kind: MethodKind, o: &BaselineOpts, precision: PrecisionArg) -> M
     }
 }
 
+/// Method `kind`'s settings before the flags: its `--method-config` (every method but the GAN,
+/// whose settings are its weights), or its defaults (`have_reference`: Sea-thru fits its
+/// coefficients to the reference).
+fn base_spec(kind: MethodKind, o: &BaselineOpts, have_reference: bool) -> Result<MethodSpec> {
+    match &o.method_config {
+        Some(path) if kind != MethodKind::Uwgan => {
+            let text = std::fs::read_to_string(path)
+                .with_context(|| format!("reading {}", path.display()))?;
+            MethodSpec::from_json(&text, Some(kind))
+                .with_context(|| format!("method config {}", path.display()))
+        }
+        _ => Ok(MethodSpec::defaults(kind, have_reference)),
+    }
+}
+
 /// Refuses a method option that none of `methods` uses, with one line naming the option and
 /// the method(s) (`MethodOptions::refuse_inapplicable`; `--method-config` is the command
 /// line's own).
@@ -58,21 +73,20 @@ pub fn refuse_inapplicable(
             to.join(", ")
         );
     }
-    // Sea-thru takes its coefficients from the reference when one is given, unless told.
-    let seathru_fitted = match o.seathru {
-        Some(SeathruSource::Reference) => true,
-        Some(_) => false,
-        None => have_reference && o.method_config.is_none(),
-    };
     let any = methods.first().copied().unwrap_or(MethodKind::Uwnr);
-    options(any, o, PrecisionArg::F32).refuse_inapplicable(methods, seathru_fitted)?;
+    let options = options(any, o, PrecisionArg::F32);
+    // Sea-thru takes its coefficients from the reference when its settings say so.
+    let seathru_fitted = methods.contains(&MethodKind::Seathru)
+        && options.seathru_fitted(&base_spec(MethodKind::Seathru, o, have_reference)?);
+    options.refuse_inapplicable(methods, seathru_fitted)?;
     Ok(())
 }
 
-/// Method `kind` with its flags applied: `--method-config` (every method but the GAN, whose
-/// settings are its weights), then the model options for the networks (weights and tiling
-/// override the config's), then the options the flags set ([`options`]).
-/// Callers first refuse flags that apply to none of their methods ([`refuse_inapplicable`]).
+/// Method `kind` with its flags applied: its [`base_spec`] with the options the flags set
+/// ([`options`], `MethodOptions::spec_over`, which also refuses a render without the reference
+/// it needs), then the model options for the networks (weights and tiling override the
+/// config's). Callers first refuse flags that apply to none of their methods
+/// ([`refuse_inapplicable`]).
 pub fn method_spec(
     kind: MethodKind,
     o: &BaselineOpts,
@@ -80,15 +94,6 @@ pub fn method_spec(
     precision: PrecisionArg,
     have_reference: bool,
 ) -> Result<MethodSpec> {
-    let mut spec = match &o.method_config {
-        Some(path) if kind != MethodKind::Uwgan => {
-            let text = std::fs::read_to_string(path)
-                .with_context(|| format!("reading {}", path.display()))?;
-            MethodSpec::from_json(&text, Some(kind))
-                .with_context(|| format!("method config {}", path.display()))?
-        }
-        _ => MethodSpec::defaults(kind, have_reference),
-    };
     if kind.loads_weights() && model.device != DeviceArg::Engine {
         bail!(
             "renders run on the engine (uwnr-engine): --device flex|tch chooses where training runs \
@@ -98,7 +103,8 @@ pub fn method_spec(
     if kind == MethodKind::Uwgan && precision == PrecisionArg::Bf16 {
         bail!("--precision bf16 applies to --method uwnr only (the UWGAN generator runs in f32)");
     }
-    options(kind, o, precision).apply(&mut spec);
+    let base = base_spec(kind, o, have_reference)?;
+    let mut spec = options(kind, o, precision).spec_over(base, have_reference)?;
     match &mut spec {
         MethodSpec::Uwnr(s) => {
             if model.weights.is_some() {
@@ -130,12 +136,6 @@ pub fn method_spec(
             s.weights.clone_from(&model.weights);
         }
         _ => {}
-    }
-    if !kind.loads_weights()
-        && spec.reference_use() == uwnr_render::ReferenceUse::Required
-        && !have_reference
-    {
-        bail!("--method {kind} needs --reference");
     }
     Ok(spec)
 }

@@ -30,12 +30,6 @@ pub fn run(a: &RenderArgs) -> Result<ExitCode> {
         a.precision,
         !refs.is_empty(),
     )?;
-    if spec.reference_use() == ReferenceUse::Required && refs.is_empty() {
-        bail!(
-            "--method {} needs --reference (a real underwater image whose style is rendered)",
-            a.method
-        );
-    }
     // A method that reads no reference (the GAN's water comes from the code drawn from --seed).
     let refs = if spec.reference_use() == ReferenceUse::Ignored && a.method.loads_weights() {
         if !refs.is_empty() {

@@ -61,7 +61,7 @@ fn baselines_render_without_the_network() {
         s(&dir.path().join("x.png")),
     ]);
     assert!(!o.status.success());
-    assert!(stderr(&o).contains("needs --reference"), "{}", stderr(&o));
+    assert!(stderr(&o).contains("needs a reference"), "{}", stderr(&o));
 }
 
 #[test]
