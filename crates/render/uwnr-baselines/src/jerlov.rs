@@ -25,9 +25,9 @@
 //! are 0.805 / 0.804. Those copies also index the table as `[R, G, B]` while the paper lists it
 //! blue-first; our table is in RGB order, matching uwnr's images.
 
+use crate::record::{BaselineRecord, JerlovRecord};
 use rand::Rng;
 use serde::{Deserialize, Serialize};
-use serde_json::json;
 
 use crate::common::{Range, checked_depth, form_image, rng_from_seed, round6, round6_3};
 use crate::error::{BaselineError, Result};
@@ -212,21 +212,17 @@ pub(crate) fn render(params: &JerlovParams, input: &RenderInput, seed: u64) -> R
     };
     let image = form_image(input.clean, &depth, gain, att, att, background)?;
 
-    let params_json = json!({
-        "method": "jerlov",
-        "water_type": water.name(),
-        "transmittance_per_m_rgb": n,
-        "depth_scale_m": round6(depth_scale),
-        "background_depth_m": round6(background_depth),
-        "background_gain": params.background_gain,
-        "background_rgb": round6_3(background),
-        "illuminate_scene": params.illuminate_scene,
-        "seed": seed,
+    let params = BaselineRecord::Jerlov(JerlovRecord {
+        water_type: water,
+        transmittance_per_m_rgb: n,
+        depth_scale_m: round6(depth_scale),
+        background_depth_m: round6(background_depth),
+        background_gain: params.background_gain,
+        background_rgb: round6_3(background),
+        illuminate_scene: params.illuminate_scene,
+        seed,
     });
-    Ok(Rendered {
-        image,
-        params: params_json,
-    })
+    Ok(Rendered { image, params })
 }
 
 #[cfg(test)]

@@ -29,13 +29,14 @@
 //! )
 //! .unwrap();
 //! assert_eq!(out.image.size(), (32, 24));
-//! assert_eq!(out.params["method"], "jerlov");
+//! assert_eq!(out.params.method(), "jerlov");
 //! ```
 
 pub mod background;
 mod common;
 pub mod error;
 pub mod jerlov;
+pub mod record;
 pub mod reinhard;
 pub mod seathru;
 pub mod uisa;
@@ -47,6 +48,7 @@ pub use background::{BackgroundPick, quadtree_background};
 pub use common::Range;
 pub use error::{BaselineError, Result};
 pub use jerlov::{JERLOV_TYPES, JerlovParams, WaterType};
+pub use record::BaselineRecord;
 pub use reinhard::{ColourSpace, ReinhardParams};
 pub use seathru::{
     GivenCoefficients, ReferenceCoefficients, SampledCoefficients, SeathruCoefficients,
@@ -109,9 +111,8 @@ pub struct RenderInput<'a> {
 pub struct Rendered {
     /// The underwater image, RGB in [0, 1], the clean image's size.
     pub image: Image,
-    /// The parameters actually used, including the sampled ones (`"method"` first), for the
-    /// dataset manifest.
-    pub params: serde_json::Value,
+    /// The parameters actually used, including the sampled ones, for the dataset manifest.
+    pub params: BaselineRecord,
 }
 
 /// Renders `input` with `method`; `seed` fixes every random draw.

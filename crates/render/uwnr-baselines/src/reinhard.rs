@@ -22,9 +22,9 @@
 //!
 //! The result is clipped to [0, 1]. A source channel with (almost) no spread is only shifted.
 
+use crate::record::{BaselineRecord, ReinhardRecord};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use serde_json::json;
 use uwnr_core::Image;
 use uwnr_core::color::{lab_to_rgb_px, lalphabeta_to_rgb_px, rgb_to_lab_px, rgb_to_lalphabeta_px};
 
@@ -214,17 +214,13 @@ pub(crate) fn render(params: &ReinhardParams, input: &RenderInput) -> Result<Ren
         .ok_or(BaselineError::MissingReference { method: "reinhard" })?;
     let (image, target) =
         transfer_with_stats(input.clean, reference, params.space, params.match_std)?;
-    let params_json = json!({
-        "method": "reinhard",
-        "space": params.space,
-        "match_std": params.match_std,
-        "reference_mean": round6_3(target.mean),
-        "reference_std": round6_3(target.std),
+    let params = BaselineRecord::Reinhard(ReinhardRecord {
+        space: params.space,
+        match_std: params.match_std,
+        reference_mean: round6_3(target.mean),
+        reference_std: round6_3(target.std),
     });
-    Ok(Rendered {
-        image,
-        params: params_json,
-    })
+    Ok(Rendered { image, params })
 }
 
 #[cfg(test)]

@@ -46,8 +46,10 @@
 //! generator: the Jerlov position (sampled mode), the three `k_c`, `D` (sampled mode), `s`
 //! (given and sampled modes).
 
+use crate::record::{
+    BaselineRecord, CoefficientsRecord, FittedRecord, SampledRecord, SeathruRecord,
+};
 use serde::{Deserialize, Serialize};
-use serde_json::json;
 use uwnr_core::resize::fit_within;
 
 use crate::background::{BackgroundPick, SUID_MIN_REGION_FRACTION, quadtree_background};
@@ -56,7 +58,7 @@ use crate::common::{
 };
 use crate::error::{BaselineError, Result};
 use crate::jerlov::{
-    JERLOV_TYPES, UWCNN_BACKGROUND_DEPTH_M, UWCNN_BACKGROUND_GAIN, UWCNN_DEPTH_SCALE_M,
+    JERLOV_TYPES, UWCNN_BACKGROUND_DEPTH_M, UWCNN_BACKGROUND_GAIN, UWCNN_DEPTH_SCALE_M, WaterType,
 };
 use crate::uisa::REFERENCE_MAX_SIDE;
 use crate::{RenderInput, Rendered};
@@ -254,9 +256,9 @@ pub fn jerlov_manifold(position: f64) -> [f64; 3] {
 }
 
 /// Name of the Jerlov type nearest to `position`.
-fn nearest_type(position: f64) -> &'static str {
+fn nearest_type(position: f64) -> WaterType {
     let i = position.round().clamp(0.0, JERLOV_LAST_POSITION) as usize;
-    JERLOV_TYPES[i].0
+    WaterType::ALL[i]
 }
 
 fn chromaticity(v: [f64; 3]) -> [f64; 3] {
@@ -302,7 +304,7 @@ pub(crate) fn render(params: &SeathruParams, input: &RenderInput, seed: u64) -> 
     // `Some(s)` where the coefficients fix the distance scale (a reference's fit).
     let mut fitted_scale = None;
     let (beta_d, beta_b, b_inf, source) = match &params.coefficients {
-        SeathruCoefficients::Given(g) => (g.beta_d, g.beta_b, g.b_inf, json!({ "mode": "given" })),
+        SeathruCoefficients::Given(g) => (g.beta_d, g.beta_b, g.b_inf, CoefficientsRecord::Given),
         SeathruCoefficients::Sampled(s) => {
             let position = s.water.sample(&mut rng);
             let beta_d = jerlov_manifold(position);
@@ -311,13 +313,12 @@ pub(crate) fn render(params: &SeathruParams, input: &RenderInput, seed: u64) -> 
             let b_inf =
                 beta_d.map(|b| (s.background_gain * (-b * background_depth).exp()).min(1.0));
             let beta_b = std::array::from_fn(|c| k[c] * beta_d[c]);
-            let source = json!({
-                "mode": "sampled",
-                "jerlov_position": round6(position),
-                "nearest_water_type": nearest_type(position),
-                "backscatter_ratio_rgb": round6_3(k),
-                "background_depth_m": round6(background_depth),
-                "background_gain": s.background_gain,
+            let source = CoefficientsRecord::Sampled(SampledRecord {
+                jerlov_position: round6(position),
+                nearest_water_type: nearest_type(position),
+                backscatter_ratio_rgb: round6_3(k),
+                background_depth_m: round6(background_depth),
+                background_gain: s.background_gain,
             });
             (beta_d, beta_b, b_inf, source)
         }
@@ -334,14 +335,13 @@ pub(crate) fn render(params: &SeathruParams, input: &RenderInput, seed: u64) -> 
             let k: [f64; 3] = std::array::from_fn(|_| r.backscatter_ratio.sample(&mut rng));
             let beta_b = std::array::from_fn(|c| k[c] * beta_d[c]);
             fitted_scale = Some(background_depth);
-            let source = json!({
-                "mode": "from_reference",
-                "jerlov_position": round6(position),
-                "nearest_water_type": nearest_type(position),
-                "fitted_background_depth_m": round6(background_depth),
-                "hue_residual": round6(residual),
-                "backscatter_ratio_rgb": round6_3(k),
-                "background_pick": r.background_pick,
+            let source = CoefficientsRecord::FromReference(FittedRecord {
+                jerlov_position: round6(position),
+                nearest_water_type: nearest_type(position),
+                fitted_background_depth_m: round6(background_depth),
+                hue_residual: round6(residual),
+                backscatter_ratio_rgb: round6_3(k),
+                background_pick: r.background_pick,
             });
             (beta_d, beta_b, b_inf, source)
         }
@@ -354,19 +354,15 @@ pub(crate) fn render(params: &SeathruParams, input: &RenderInput, seed: u64) -> 
     let bs = beta_b.map(|b| b * depth_scale);
     let image = form_image(input.clean, &depth, [1.0; 3], att, bs, b_inf)?;
 
-    let params_json = json!({
-        "method": "seathru",
-        "coefficients": source,
-        "beta_d_per_m_rgb": round6_3(beta_d),
-        "beta_b_per_m_rgb": round6_3(beta_b),
-        "b_inf_rgb": round6_3(b_inf),
-        "depth_scale_m": round6(depth_scale),
-        "seed": seed,
+    let params = BaselineRecord::Seathru(SeathruRecord {
+        coefficients: source,
+        beta_d_per_m_rgb: round6_3(beta_d),
+        beta_b_per_m_rgb: round6_3(beta_b),
+        b_inf_rgb: round6_3(b_inf),
+        depth_scale_m: round6(depth_scale),
+        seed,
     });
-    Ok(Rendered {
-        image,
-        params: params_json,
-    })
+    Ok(Rendered { image, params })
 }
 
 #[cfg(test)]

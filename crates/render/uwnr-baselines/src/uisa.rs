@@ -28,8 +28,8 @@
 //! the 15-pixel window spans a similar part of the scene whatever the reference's resolution.
 //! Nothing is random: the seed is unused.
 
+use crate::record::{BaselineRecord, UisaRecord};
 use serde::{Deserialize, Serialize};
-use serde_json::json;
 use uwnr_core::Image;
 use uwnr_core::dark_channel::dark_channel;
 use uwnr_core::resize::fit_within;
@@ -214,23 +214,19 @@ pub(crate) fn render(params: &UisaParams, input: &RenderInput) -> Result<Rendere
     let att = ratios.map(|r| r * beta_red);
     let image = form_image(input.clean, &depth, [1.0; 3], att, att, background)?;
 
-    let params_json = json!({
-        "method": "uisa",
-        "background_rgb": round6_3(background),
-        "background_pick": params.background_pick,
-        "reference_size": [work.width(), work.height()],
-        "reference_median_transmission": round6(t_median),
-        "clean_typical_depth": round6(depth_typical),
-        "attenuation_ratio": params.attenuation_ratio,
-        "beta_over_beta_red_rgb": round6_3(ratios),
-        "beta_per_unit_depth_rgb": round6_3(att),
-        "window": params.window,
-        "transmission_floor": params.transmission_floor,
+    let params = BaselineRecord::Uisa(UisaRecord {
+        background_rgb: round6_3(background),
+        background_pick: params.background_pick,
+        reference_size: [work.width(), work.height()],
+        reference_median_transmission: round6(t_median),
+        clean_typical_depth: round6(depth_typical),
+        attenuation_ratio: params.attenuation_ratio,
+        beta_over_beta_red_rgb: round6_3(ratios),
+        beta_per_unit_depth_rgb: round6_3(att),
+        window: params.window,
+        transmission_floor: params.transmission_floor,
     });
-    Ok(Rendered {
-        image,
-        params: params_json,
-    })
+    Ok(Rendered { image, params })
 }
 
 #[cfg(test)]

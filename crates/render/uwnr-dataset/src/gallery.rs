@@ -195,7 +195,7 @@ mod tests {
             clean_source: format!("in/{name}.png"),
             reference_source: None,
             method: method.into(),
-            params: serde_json::Value::Null,
+            params: uwnr_render::MethodRecord::Earlier(serde_json::Value::Null),
             seed: 0,
             width: 24,
             height: 16,

@@ -14,6 +14,7 @@ use serde::{Deserialize, Serialize};
 use crate::error::{DatasetError, Result, io_err};
 use crate::labels::info::LabelsInfo;
 use crate::plan::Shard;
+use uwnr_render::MethodRecord;
 
 mod settings;
 pub use settings::{PlannedPair, Settings, first_difference};
@@ -58,7 +59,7 @@ pub struct Record {
     /// The method.
     pub method: String,
     /// The method's parameters for this pair (sampled values included).
-    pub params: serde_json::Value,
+    pub params: MethodRecord,
     /// The pair's seed.
     pub seed: u64,
     /// Pair size in pixels.
@@ -372,7 +373,11 @@ mod tests {
             clean_source: "c.jpg".into(),
             reference_source: Some("r.jpg".into()),
             method: "reinhard".into(),
-            params: serde_json::json!({"method": "reinhard"}),
+            params: serde_json::from_str(
+                r#"{"match_std":true,"method":"reinhard","reference_mean":[0.1,0.2,0.3],
+                    "reference_std":[0.01,0.02,0.03],"space":"lalphabeta"}"#,
+            )
+            .unwrap(),
             seed: 1,
             width: 8,
             height: 6,
@@ -397,10 +402,15 @@ mod tests {
         let path = dir.path().join("manifest.jsonl");
         let mut r = record("a_0", 0);
         r.params = serde_json::from_str(
-            r#"{"strength":{"scale":0.9729539752006531,"target_db":12.820460319519043},
-                "water":{"offset":[0.20839132368564606,0.24237442016601562,0.9583044648170471]}}"#,
+            r#"{"depth":{"scale":"relative","scene_m":5.0,"trust":1.0},
+                "strength":{"renders":2,"scale":0.9729539752006531,"target":"t",
+                            "target_db":12.820460319519043},
+                "water":{"gain":[0.5,0.6,0.7],
+                         "offset":[0.20839132368564606,0.24237442016601562,0.9583044648170471]},
+                "weights":"bundled model"}"#,
         )
         .unwrap();
+        assert!(matches!(r.params, MethodRecord::Uwnr(_)), "{:?}", r.params);
         let line = r.to_line();
         std::fs::write(&path, &line).unwrap();
         let mut again: Vec<Record> = read_manifest(&path)
@@ -412,6 +422,28 @@ mod tests {
         write_manifest(&path, &mut again).unwrap();
         assert_eq!(std::fs::read_to_string(&path).unwrap(), line);
         assert!(line.contains("0.9729539752006531,"), "{line}");
+    }
+
+    /// Each method's record is typed on the way in, and written out as it was read: the keys in
+    /// sorted order, the tags where they were. A record of another shape (an earlier version's)
+    /// is kept as read.
+    #[test]
+    fn records_read_typed_and_write_out_unchanged() {
+        let lines = [
+            r#"{"beta":[0.1,0.2,0.3],"depth_scale_m":5.0,"method":"haze","veil":[0.1,0.4,0.5]}"#,
+            r#"{"backlight":[0.10000000149011612,0.20000000298023224,0.30000001192092896],"beta":[0.5,0.25,0.125],"gain":1.5,"vignette":[-0.10000000149011612,0.0,0.0],"weights":"g.safetensors","z_seed":7}"#,
+            r#"{"b_inf_rgb":[0.1,0.4,0.5],"beta_b_per_m_rgb":[0.1,0.1,0.1],"beta_d_per_m_rgb":[0.3,0.1,0.05],"coefficients":{"mode":"given"},"depth_scale_m":4.0,"forward_scatter":0.3,"medium":0.1,"method":"revised","seed":3}"#,
+            r#"{"background_depth_m":8.0,"background_gain":0.8,"background_rgb":[0.1,0.5,0.6],"depth_scale_m":5.0,"illuminate_scene":false,"method":"jerlov","seed":2,"transmittance_per_m_rgb":[0.805,0.961,0.982],"water_type":"I"}"#,
+        ];
+        for line in lines {
+            let typed: MethodRecord = serde_json::from_str(line).unwrap();
+            assert!(!matches!(typed, MethodRecord::Earlier(_)), "{line}");
+            assert_eq!(serde_json::to_string(&typed).unwrap(), line);
+        }
+        let earlier = r#"{"lightfield":"old","weights":"w"}"#;
+        let kept: MethodRecord = serde_json::from_str(earlier).unwrap();
+        assert!(matches!(kept, MethodRecord::Earlier(_)));
+        assert_eq!(serde_json::to_string(&kept).unwrap(), earlier);
     }
 
     #[test]

@@ -31,6 +31,7 @@ use serde_json::{Value, json};
 use uwnr_core::Image;
 use uwnr_core::io::{DecodeLimits, load_rgb};
 use uwnr_model::water::{Affine, WaterBank, bank_entry, bundled_bank, calibrate, rescaled};
+use uwnr_render::record::StrengthRecord;
 
 use crate::error::{DatasetError, Result};
 use crate::plan::discover_images;
@@ -270,13 +271,14 @@ impl PairWater {
     }
 
     /// What the manifest records of it.
-    pub fn record(&self) -> Value {
-        json!({
-            "target": self.name,
-            "target_db": self.target_db,
-            "scale": self.scale,
-            "renders": self.rendered_db.len(),
-        })
+    #[must_use]
+    pub fn record(&self) -> StrengthRecord {
+        StrengthRecord {
+            target: self.name.clone(),
+            target_db: self.target_db,
+            scale: self.scale,
+            renders: self.rendered_db.len(),
+        }
     }
 }
 
@@ -428,7 +430,7 @@ mod tests {
         let db = uwnr_model::water::pair_psnr(&w.apply(&clean).unwrap(), &clean).unwrap();
         assert!(
             (db - t.entries[0].strength_db.unwrap()).abs() < 0.3,
-            "{db} {rec}"
+            "{db} {rec:?}"
         );
     }
 
@@ -451,7 +453,7 @@ mod tests {
         // Within the tolerance: kept.
         assert!(!pw.corrected(16.2));
         assert_eq!(pw.rendered_db, [14.0, 16.2]);
-        assert_eq!(pw.record()["renders"], 2);
+        assert_eq!(pw.record().renders, 2);
         // Too weak at the largest scale: nothing left to move.
         pw.rendered_db.clear();
         pw.scale = MAX_STRENGTH_SCALE;

@@ -5,8 +5,8 @@
 //! `d` is uwnr's relative depth in [0, 1] (larger = farther) and `s` the metres it spans, so a
 //! pixel at depth `d` sits `d·s` metres away.
 
+use crate::record::{HazeRecord, MethodRecord, PhysicalRecord};
 use serde::{Deserialize, Serialize};
-use serde_json::json;
 use uwnr_core::Image;
 
 use crate::error::{RenderError, Result};
@@ -70,11 +70,7 @@ impl HazeParams {
 
 /// Renders `clean` (RGB) hazed over `depth` (1 channel, its size); returns the image and the
 /// parameters to record.
-pub fn render(
-    params: &HazeParams,
-    clean: &Image,
-    depth: &Image,
-) -> Result<(Image, serde_json::Value)> {
+pub fn render(params: &HazeParams, clean: &Image, depth: &Image) -> Result<(Image, MethodRecord)> {
     params.validate()?;
     if clean.channels() != 3 || depth.channels() != 1 || depth.size() != clean.size() {
         return Err(RenderError::Invalid(format!(
@@ -101,12 +97,11 @@ pub fn render(
             *o = (j * t + b * (1.0 - t)).clamp(0.0, 1.0);
         }
     }
-    let record = json!({
-        "method": "haze",
-        "veil": params.veil,
-        "beta": params.beta,
-        "depth_scale_m": params.depth_scale_m,
-    });
+    let record = MethodRecord::Physical(PhysicalRecord::Haze(HazeRecord {
+        veil: params.veil,
+        beta: params.beta,
+        depth_scale_m: params.depth_scale_m,
+    }));
     Ok((out, record))
 }
 
@@ -120,7 +115,7 @@ mod tests {
         let p = HazeParams::default();
         let (near, record) = render(&p, &clean, &Image::filled(4, 2, 1, 0.0)).unwrap();
         assert!(near.data().iter().all(|&v| (v - 0.5).abs() < 1e-6));
-        assert_eq!(record["method"], "haze");
+        assert_eq!(record.to_value()["method"], "haze");
         // At depth 1 (5 m), red keeps exp(-0.34 * 5) = 0.1827 of the scene.
         let (far, _) = render(&p, &clean, &Image::filled(4, 2, 1, 1.0)).unwrap();
         let t = (-0.34f32 * 5.0).exp();

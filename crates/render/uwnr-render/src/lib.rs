@@ -24,7 +24,7 @@
 //! let response = uwnr_model::DepthResponse::default();
 //! let out = renderer.worker().render(&clean, &depth, &response, None, 7).unwrap();
 //! assert_eq!(out.image.size(), (8, 6));
-//! assert_eq!(out.params["method"], "haze");
+//! assert_eq!(out.params.to_value()["method"], "haze");
 //! ```
 
 pub mod camera;
@@ -50,6 +50,6 @@ pub use method::{
     ComputeDevice, MethodKind, MethodSpec, Precision, ReferenceUse, UwganSpec, UwnrSpec,
 };
 pub use options::{MethodOptions, SeathruSource};
-pub use record::{depth_record, fnv1a64};
+pub use record::{MethodRecord, depth_record, fnv1a64};
 pub use renderer::{PreparedReference, ReferenceInput, Rendered, Renderer, Worker};
 pub use revised::RevisedParams;

@@ -4,7 +4,7 @@
 use std::path::Path;
 use std::sync::Arc;
 
-use serde_json::{Map, Value, json};
+use serde_json::{Map, Value};
 use uwnr_baselines::{Method, RenderInput};
 use uwnr_core::Image;
 use uwnr_model::{
@@ -16,7 +16,9 @@ use crate::haze::{self, HazeParams};
 use crate::method::{
     ComputeDevice, MethodKind, MethodSpec, Precision, ReferenceUse, UwganSpec, UwnrSpec,
 };
-use crate::record::{GanRecord, NetworkRecord, depth_record, fingerprint};
+use crate::record::{
+    GanRecord, MethodRecord, NetworkRecord, UwganRecord, UwnrRecord, depth_record, fingerprint,
+};
 use crate::revised::{self, RevisedParams};
 
 /// The UWNR model, loaded.
@@ -109,7 +111,7 @@ pub struct Rendered {
     /// The underwater image, the clean image's size.
     pub image: Image,
     /// What made it (weights, drawn parameters, depth response).
-    pub params: Value,
+    pub params: MethodRecord,
 }
 
 impl Renderer {
@@ -406,10 +408,12 @@ impl Worker<'_> {
                         .apply(&mut image, depth, veil, seed)
                         .map_err(|e| failed("the water's effects", e))?;
                 }
-                let mut params = json!({ "weights": net.weights, "depth": depth_record(response) });
-                if let Some(affine) = style.water.as_ref().and_then(|w| w.affine) {
-                    params["water"] = json!(affine);
-                }
+                let params = MethodRecord::Uwnr(UwnrRecord {
+                    weights: net.weights.clone(),
+                    depth: depth_record(response),
+                    water: style.water.as_ref().and_then(|w| w.affine),
+                    strength: None,
+                });
                 Ok(Rendered { image, params })
             }
             WorkerImp::Uwgan { generator, gan } => {
@@ -417,13 +421,13 @@ impl Worker<'_> {
                     .map_err(|e| failed("rendering with uwgan", e))?;
                 Ok(Rendered {
                     image,
-                    params: json!({
-                        "weights": gan.weights,
-                        "z_seed": seed,
-                        "beta": v.beta,
-                        "backlight": v.backlight,
-                        "vignette": v.vignette,
-                        "gain": v.gain,
+                    params: MethodRecord::Uwgan(UwganRecord {
+                        weights: gan.weights.clone(),
+                        z_seed: seed,
+                        beta: v.beta,
+                        backlight: v.backlight,
+                        vignette: v.vignette,
+                        gain: v.gain,
                     }),
                 })
             }
@@ -449,7 +453,7 @@ impl Worker<'_> {
                     .map_err(|e| failed(&format!("rendering with {}", method.name()), e))?;
                 Ok(Rendered {
                     image: rendered.image,
-                    params: rendered.params,
+                    params: rendered.params.into(),
                 })
             }
             WorkerImp::Revised(p) => {

@@ -8,11 +8,12 @@
 //! parameters with the two strengths.
 
 use serde::{Deserialize, Serialize};
-use serde_json::{Value, json};
+use uwnr_baselines::BaselineRecord;
 use uwnr_baselines::{Method, RenderInput, SeathruParams};
 use uwnr_model::WaterEffects;
 
 use crate::error::{RenderError, Result};
+use crate::record::{MethodRecord, PhysicalRecord, RevisedRecord};
 
 /// The revised model's settings: Sea-thru's, and the two stages' strengths.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -70,7 +71,7 @@ pub fn render(
     params: &RevisedParams,
     input: &RenderInput<'_>,
     seed: u64,
-) -> Result<(uwnr_core::Image, Value)> {
+) -> Result<(uwnr_core::Image, MethodRecord)> {
     params.validate()?;
     let failed = |e: &dyn std::fmt::Display| RenderError::Failed {
         context: "rendering with revised".into(),
@@ -78,27 +79,24 @@ pub fn render(
     };
     let rendered =
         uwnr_baselines::render(&params.baseline(), input, seed).map_err(|e| failed(&e))?;
-    let veil = rendered.params["b_inf_rgb"]
-        .as_array()
-        .and_then(|v| {
-            let c: Vec<f32> = v
-                .iter()
-                .filter_map(Value::as_f64)
-                .map(|x| x as f32)
-                .collect();
-            <[f32; 3]>::try_from(c).ok()
-        })
-        .ok_or_else(|| failed(&"Sea-thru's render recorded no B^inf"))?;
+    let BaselineRecord::Seathru(seathru) = rendered.params else {
+        return Err(failed(&"Sea-thru's render recorded another method"));
+    };
+    let veil = seathru.b_inf_rgb.map(|v| v as f32);
     let mut image = rendered.image;
     params
         .effects()
         .apply(&mut image, input.depth, veil, seed)
         .map_err(|e| failed(&e))?;
-    let mut recorded = rendered.params;
-    recorded["method"] = json!("revised");
-    recorded["forward_scatter"] = json!(f64::from(params.forward_scatter));
-    recorded["medium"] = json!(f64::from(params.medium));
-    Ok((image, recorded))
+    let recorded = RevisedRecord::new(
+        seathru,
+        f64::from(params.forward_scatter),
+        f64::from(params.medium),
+    );
+    Ok((
+        image,
+        MethodRecord::Physical(PhysicalRecord::Revised(recorded)),
+    ))
 }
 
 #[cfg(test)]
@@ -127,9 +125,21 @@ mod tests {
         let (image, recorded) = render(&params, &input, 5).unwrap();
         let seathru = uwnr_baselines::render(&params.baseline(), &input, 5).unwrap();
         assert_ne!(image, seathru.image);
-        assert_eq!(recorded["method"], "revised");
-        assert_eq!(recorded["b_inf_rgb"], seathru.params["b_inf_rgb"]);
-        assert!((recorded["medium"].as_f64().unwrap() - 0.1).abs() < 1e-6);
+        let MethodRecord::Physical(PhysicalRecord::Revised(r)) = &recorded else {
+            panic!("{recorded:?}")
+        };
+        let BaselineRecord::Seathru(s) = &seathru.params else {
+            panic!()
+        };
+        assert_eq!(r.b_inf_rgb, s.b_inf_rgb);
+        assert!((r.medium - 0.1).abs() < 1e-6);
+        let line = recorded.to_value();
+        assert_eq!(line["method"], "revised");
+        // A manifest reads it back as the same typed record.
+        assert_eq!(
+            serde_json::from_value::<MethodRecord>(line).unwrap(),
+            recorded
+        );
         assert_eq!(render(&params, &input, 5).unwrap().0, image);
         let off = RevisedParams {
             forward_scatter: 0.0,

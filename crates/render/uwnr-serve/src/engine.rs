@@ -493,7 +493,7 @@ impl Engine {
             png: Arc::new(png),
             width: out.image.width(),
             height: out.image.height(),
-            params: out.params,
+            params: out.params.to_value(),
         })
     }
 

@@ -85,7 +85,7 @@ fn check_golden(name: &str, method: &Method, reference: Option<&str>) {
         save_rgb(&png, &out.image).unwrap();
         std::fs::write(
             &json,
-            serde_json::to_string_pretty(&out.params).unwrap() + "\n",
+            serde_json::to_string_pretty(&crate::value(&out.params)).unwrap() + "\n",
         )
         .unwrap();
         eprintln!("rewrote {}", png.display());
@@ -94,9 +94,9 @@ fn check_golden(name: &str, method: &Method, reference: Option<&str>) {
     compare_png(name, &png, &out.image);
     let want: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     assert!(
-        json_close(&out.params, &want),
+        json_close(&crate::value(&out.params), &want),
         "{name}: parameters changed\n got  {}\n want {want}",
-        out.params
+        crate::value(&out.params)
     );
 }
 

@@ -114,7 +114,7 @@ fn outputs_stay_in_unit_range_and_keep_the_size() {
                 "{} case {k}: value outside [0, 1]",
                 m.name()
             );
-            assert_eq!(out.params["method"], m.name());
+            assert_eq!(crate::value(&out.params)["method"], m.name());
         }
     }
 }
@@ -192,9 +192,16 @@ fn random_water_type_covers_all_ten_types() {
     let mut seen = std::collections::BTreeSet::new();
     for seed in 0..200 {
         let out = render(&Method::Jerlov(JerlovParams::default()), &input, seed).unwrap();
-        seen.insert(out.params["water_type"].as_str().unwrap().to_owned());
-        let s = out.params["depth_scale_m"].as_f64().unwrap();
-        let d = out.params["background_depth_m"].as_f64().unwrap();
+        seen.insert(
+            crate::value(&out.params)["water_type"]
+                .as_str()
+                .unwrap()
+                .to_owned(),
+        );
+        let s = crate::value(&out.params)["depth_scale_m"].as_f64().unwrap();
+        let d = crate::value(&out.params)["background_depth_m"]
+            .as_f64()
+            .unwrap();
         assert!(s > 0.5 && s <= 15.0, "{s}");
         assert!(d > 3.0 && d <= 5.0, "{d}");
     }
@@ -241,7 +248,7 @@ fn farther_pixels_are_closer_to_the_background() {
     for (m, key) in methods {
         let out = render(&m, &input, 5).unwrap();
         for c in 0..3 {
-            let b = out.params[key][c].as_f64().unwrap() as f32;
+            let b = crate::value(&out.params)[key][c].as_f64().unwrap() as f32;
             let p = out.image.plane(c);
             let dist: Vec<f32> = p.iter().map(|v| (v - b).abs()).collect();
             assert!(
@@ -298,11 +305,10 @@ fn seathru_sampled_water_stays_on_the_requested_part_of_the_manifold() {
     });
     for seed in 0..20 {
         let out = render(&m, &c.input(), seed).unwrap();
-        let pos = out.params["coefficients"]["jerlov_position"]
-            .as_f64()
-            .unwrap();
+        let record = crate::value(&out.params);
+        let pos = record["coefficients"]["jerlov_position"].as_f64().unwrap();
         assert!(pos > 7.0 && pos <= 9.0, "{pos}");
-        let name = out.params["coefficients"]["nearest_water_type"]
+        let name = record["coefficients"]["nearest_water_type"]
             .as_str()
             .unwrap();
         assert!(["5C", "7C", "9C"].contains(&name), "{name}");
@@ -324,11 +330,13 @@ fn uisa_reproduces_the_reference_median_transmission() {
         reference: Some(&reference),
     };
     let out = render(&Method::Uisa(UisaParams::default()), &input, 0).unwrap();
-    let b_red = out.params["background_rgb"][0].as_f64().unwrap() as f32;
+    let b_red = crate::value(&out.params)["background_rgb"][0]
+        .as_f64()
+        .unwrap() as f32;
     let mut t: Vec<f32> = out.image.plane(0).iter().map(|v| 1.0 - v / b_red).collect();
     t.sort_by(f32::total_cmp);
     let got = t[(t.len() - 1) / 2];
-    let want = out.params["reference_median_transmission"]
+    let want = crate::value(&out.params)["reference_median_transmission"]
         .as_f64()
         .unwrap() as f32;
     assert!((got - want).abs() < 1e-4, "{got} vs {want}");
@@ -467,12 +475,12 @@ fn a_strongly_cast_reference_gives_a_clearly_cast_seathru_render() {
                 change * 255.0 > 15.0,
                 "tint {i} seed {seed}: mean change {:.1}/255 ({})",
                 change * 255.0,
-                out.params
+                crate::value(&out.params)
             );
             assert!(
                 g.max(b) - r > clean_gap + 0.12,
                 "tint {i} seed {seed}: rgb means {r:.3} {g:.3} {b:.3} ({})",
-                out.params
+                crate::value(&out.params)
             );
         }
     }

@@ -11,7 +11,7 @@ use uwnr_core::io::{DecodeLimits, load_rgb, save_gray16, save_rgb};
 use uwnr_core::resize::resize_bilinear;
 use uwnr_depth::PreparedDepth;
 use uwnr_model::ReferenceStyle;
-use uwnr_render::{Camera, JobWorker, Rendered};
+use uwnr_render::{Camera, JobWorker, MethodRecord, Rendered};
 
 use super::{Msg, RefCache, Spec, fit, fit_geometry};
 use crate::labels::{Fit, Labels, PairLabels};
@@ -240,7 +240,7 @@ impl Context<'_> {
         id: &str,
         save_lightfield: bool,
         labels: &PairLabels,
-    ) -> std::result::Result<(serde_json::Value, Option<String>, Option<f32>), String> {
+    ) -> std::result::Result<(MethodRecord, Option<String>, Option<f32>), String> {
         // A calibrated water: the reference's style with the pair's own water in it, the water's
         // scale corrected on the render itself until its strength is the target's.
         let mut calibration = match (self.calibration, reference) {
@@ -337,8 +337,9 @@ impl Context<'_> {
                 .map_err(|e| format!("writing {}: {e}", p.display()))?;
         }
         write(UNDERWATER_DIR, &|p| save_rgb(p, &underwater))?;
-        if let Some(pw) = &calibration {
-            params["strength"] = pw.record();
+        // Only the UWNR model's renders are calibrated (the water is its own).
+        if let (Some(pw), MethodRecord::Uwnr(record)) = (&calibration, &mut params) {
+            record.strength = Some(pw.record());
         }
         // The pair as stored: both sides 8-bit (a calibrated pair's last render was measured).
         let strength_db = match calibration.as_ref().and_then(|pw| pw.rendered_db.last()) {

@@ -43,7 +43,7 @@ fn writes_k_pairs_per_clean_image_with_distinct_references() {
         }
         let written = load_rgb(&out.join(&r.clean), &limits).unwrap();
         assert_eq!(written.data(), source.data(), "8-bit source kept exactly");
-        assert_eq!(r.params["method"], "reinhard");
+        assert_eq!(r.params.to_value()["method"], "reinhard");
     }
     assert!(out.join("preview.png").is_file());
     let html = std::fs::read_to_string(out.join("index.html")).unwrap();

@@ -52,7 +52,7 @@ fn an_optional_reference_is_used_when_given_and_sampled_without() {
     let response = DepthResponse::default();
     let worker = r.worker();
     let without = worker.render(&clean, &depth, &response, None, 3).unwrap();
-    assert_eq!(without.params["coefficients"]["mode"], "sampled");
+    assert_eq!(without.params.to_value()["coefficients"]["mode"], "sampled");
     let given: Map<String, Value> =
         serde_json::from_str(r#"{"coefficients":{"mode":"sampled"}}"#).unwrap();
     let sampled = Renderer::load_keywords(MethodKind::Seathru, &given).unwrap();
@@ -93,7 +93,7 @@ fn the_network_reads_the_style_the_baselines_the_image() {
         )
         .unwrap();
     assert_eq!(out.image.size(), (32, 32));
-    assert_eq!(out.params["weights"], "w");
+    assert_eq!(out.params.to_value()["weights"], "w");
     let reinhard = Renderer::load(MethodSpec::defaults(MethodKind::Reinhard, true)).unwrap();
     let prepared = reinhard.prepare_reference(Arc::clone(&reference)).unwrap();
     assert!(prepared.style.is_none());
