@@ -63,8 +63,9 @@ fn main() -> std::process::ExitCode {
     match commands::run(args) {
         Ok(code) => code,
         Err(err) => {
-            // One line a user can act on: the context chain joined by ": ".
-            eprintln!("uwnr: error: {err:#}");
+            // One line a user can act on: the context chain joined by ": ", each cause once
+            // (an error's message includes its cause, uwnr_core::error).
+            eprintln!("uwnr: error: {}", report::line(&err));
             std::process::ExitCode::FAILURE
         }
     }

@@ -5,6 +5,11 @@ use std::time::Instant;
 
 use indicatif::{ProgressBar, ProgressStyle};
 
+/// An error and its context chain in one line, each cause once (`uwnr_core::error::one_line`).
+pub fn line(err: &anyhow::Error) -> String {
+    uwnr_core::error::one_line(err.chain().map(ToString::to_string))
+}
+
 /// Tracks a batch: a progress bar (hidden when stderr is not a terminal), failures, timing.
 pub struct Batch {
     bar: ProgressBar,
@@ -49,7 +54,7 @@ impl Batch {
 
     /// Records one failed item with its one-line reason; the batch goes on.
     pub fn fail(&mut self, item: PathBuf, err: &anyhow::Error) {
-        let msg = format!("{err:#}");
+        let msg = line(err);
         if self.total == 1 {
             // A single item: its error is the one line the user sees.
             eprintln!("uwnr: error: {}: {msg}", item.display());

@@ -1,5 +1,5 @@
 //! Typed errors of uwnr-model: every variant carries the facts (key, shapes, file) a user
-//! needs to act on it.
+//! needs to act on it (the workspace's convention: `uwnr_core::error`).
 
 use std::path::PathBuf;
 
@@ -35,8 +35,12 @@ pub enum ModelError {
     #[error("{source_name}: safetensors: {reason}")]
     Safetensors { source_name: String, reason: String },
     /// A PyTorch checkpoint could not be read.
-    #[error("{source_name}: PyTorch checkpoint: {reason}")]
-    Checkpoint { source_name: String, reason: String },
+    #[error("{source_name}: PyTorch checkpoint: {source}")]
+    Checkpoint {
+        source_name: String,
+        #[source]
+        source: uwnr_core::error::Cause,
+    },
     /// A tensor the generator needs is absent from the weights.
     #[error("missing tensor {key:?} in the weights")]
     MissingKey { key: String },
@@ -54,8 +58,12 @@ pub enum ModelError {
     #[error("tensor {key:?} has dtype {dtype}, expected f32, f16, bf16 or f64")]
     UnsupportedDtype { key: String, dtype: String },
     /// A metadata entry of a weights file is malformed.
-    #[error("metadata {key:?}: {reason}")]
-    Metadata { key: String, reason: String },
+    #[error("metadata {key:?}: {source}")]
+    Metadata {
+        key: String,
+        #[source]
+        source: serde_json::Error,
+    },
     /// An input image has the wrong number of channels.
     #[error("{what}: expected {expected} channel(s), got {got}")]
     Channels {

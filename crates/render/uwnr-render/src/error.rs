@@ -1,4 +1,7 @@
-//! Errors of choosing, loading and running a render method.
+//! Errors of choosing, loading and running a render method (the workspace's convention:
+//! `uwnr_core::error`).
+
+use uwnr_core::error::Cause;
 
 /// What went wrong, with the facts in fields.
 #[derive(Debug, thiserror::Error)]
@@ -26,11 +29,19 @@ pub enum RenderError {
     #[error("{0}")]
     Invalid(String),
     /// Weights that cannot be read or do not fit.
-    #[error("loading weights {source_name}: {reason}")]
-    Weights { source_name: String, reason: String },
-    /// A render that failed (`context`: which method).
-    #[error("{context}: {reason}")]
-    Failed { context: String, reason: String },
+    #[error("loading weights {source_name}: {source}")]
+    Weights {
+        source_name: String,
+        #[source]
+        source: Cause,
+    },
+    /// A render that failed (`context`: which method or stage).
+    #[error("{context}: {source}")]
+    Failed {
+        context: String,
+        #[source]
+        source: Cause,
+    },
 }
 
 /// Results of this crate.

@@ -14,15 +14,20 @@
 use std::sync::{Arc, Mutex, OnceLock, PoisonError};
 
 use uwnr_core::Image;
+use uwnr_core::error::Cause;
 
 use crate::depth_policy::DepthPolicy;
 use crate::error::{RenderError, Result};
 use crate::lru::Lru;
 use crate::renderer::{PreparedReference, ReferenceInput, Rendered, Renderer, Worker};
 
-/// A prepared reference, or why it could not be prepared (kept, so that a bad reference is
-/// read once).
-type Prepared = std::result::Result<Arc<PreparedReference>, String>;
+/// Why a reference could not be prepared: its loading (the caller's error) or its preparation
+/// (a [`RenderError`]), shared, so that a bad reference is read once and fails again with the
+/// same error.
+pub type ReferenceError = Arc<dyn std::error::Error + Send + Sync + 'static>;
+
+/// A prepared reference, or why it could not be prepared.
+type Prepared = std::result::Result<Arc<PreparedReference>, ReferenceError>;
 
 /// A render method with its depth policy and its prepared references.
 pub struct RenderJob {
@@ -86,11 +91,11 @@ impl RenderJob {
     }
 
     /// The reference called `key`, prepared for this job's method; `load` decodes it, the first
-    /// time only. A reference that failed fails again with the same message, unread.
+    /// time only. A reference that failed fails again with the same error, unread.
     pub fn reference(
         &self,
         key: &str,
-        load: impl FnOnce() -> std::result::Result<Arc<Image>, String>,
+        load: impl FnOnce() -> std::result::Result<Arc<Image>, Cause>,
     ) -> Prepared {
         let cell = {
             let mut refs = self
@@ -112,11 +117,11 @@ impl RenderJob {
         let prepared = cell
             .get_or_init(|| {
                 fresh = true;
-                let image = load()?;
+                let image = load().map_err(ReferenceError::from)?;
                 self.renderer
                     .prepare_reference(image)
                     .map(Arc::new)
-                    .map_err(|e| e.to_string())
+                    .map_err(|e| Arc::new(e) as ReferenceError)
             })
             .clone();
         if fresh {
@@ -191,9 +196,9 @@ mod tests {
         assert!(Arc::ptr_eq(&a, &b));
         assert_eq!(loads.load(Ordering::SeqCst), 1);
         let bad = job.reference("bad", || Err("truncated file".into()));
-        assert_eq!(bad.err().unwrap(), "truncated file");
+        assert_eq!(bad.err().unwrap().to_string(), "truncated file");
         let again = job.reference("bad", || panic!("a failed reference is not read again"));
-        assert_eq!(again.err().unwrap(), "truncated file");
+        assert_eq!(again.err().unwrap().to_string(), "truncated file");
     }
 
     #[test]

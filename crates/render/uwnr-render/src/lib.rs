@@ -45,7 +45,7 @@ pub use depth_policy::{
 };
 pub use error::{RenderError, Result};
 pub use haze::HazeParams;
-pub use job::{JobWorker, RenderJob};
+pub use job::{JobWorker, ReferenceError, RenderJob};
 pub use method::{
     ComputeDevice, MethodKind, MethodSpec, Precision, ReferenceUse, UwganSpec, UwnrSpec,
 };

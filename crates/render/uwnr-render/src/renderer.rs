@@ -7,6 +7,7 @@ use std::sync::Arc;
 use serde_json::{Map, Value};
 use uwnr_baselines::{Method, RenderInput};
 use uwnr_core::Image;
+use uwnr_core::error::Cause;
 use uwnr_model::{
     Backend, DepthResponse, GeneratorConfig, ReferenceStyle, RenderOptions, WaterEffects,
 };
@@ -301,10 +302,7 @@ impl Renderer {
                 water: None,
             }),
         }
-        .map_err(|e| RenderError::Failed {
-            context: "style of the reference".into(),
-            reason: e.to_string(),
-        })
+        .map_err(|e| failed("style of the reference", e))
     }
 
     /// Whether renders read the decoded reference image (the baselines; the network reads its
@@ -486,10 +484,10 @@ fn mean_colour(img: &Image) -> [f32; 3] {
     })
 }
 
-fn failed(context: &str, e: impl std::fmt::Display) -> RenderError {
+pub(crate) fn failed(context: &str, e: impl Into<Cause>) -> RenderError {
     RenderError::Failed {
         context: context.into(),
-        reason: e.to_string(),
+        source: e.into(),
     }
 }
 
@@ -504,10 +502,10 @@ fn backend(device: ComputeDevice, precision: Precision) -> Backend {
 const NO_BUNDLED_MODEL: &str =
     "this build has no bundled model: give weights (safetensors or the authors' checkpoint)";
 
-fn weights_error(source: &str, e: impl std::fmt::Display) -> RenderError {
+fn weights_error(source: &str, e: impl Into<Cause>) -> RenderError {
     RenderError::Weights {
         source_name: source.to_string(),
-        reason: e.to_string(),
+        source: e.into(),
     }
 }
 

@@ -10,6 +10,7 @@
 use serde::{Deserialize, Serialize};
 use uwnr_baselines::BaselineRecord;
 use uwnr_baselines::{Method, RenderInput, SeathruParams};
+use uwnr_core::error::Cause;
 use uwnr_model::WaterEffects;
 
 use crate::error::{RenderError, Result};
@@ -73,21 +74,18 @@ pub fn render(
     seed: u64,
 ) -> Result<(uwnr_core::Image, MethodRecord)> {
     params.validate()?;
-    let failed = |e: &dyn std::fmt::Display| RenderError::Failed {
-        context: "rendering with revised".into(),
-        reason: e.to_string(),
-    };
+    let failed = |e: Cause| crate::renderer::failed("rendering with revised", e);
     let rendered =
-        uwnr_baselines::render(&params.baseline(), input, seed).map_err(|e| failed(&e))?;
+        uwnr_baselines::render(&params.baseline(), input, seed).map_err(|e| failed(e.into()))?;
     let BaselineRecord::Seathru(seathru) = rendered.params else {
-        return Err(failed(&"Sea-thru's render recorded another method"));
+        return Err(failed("Sea-thru's render recorded another method".into()));
     };
     let veil = seathru.b_inf_rgb.map(|v| v as f32);
     let mut image = rendered.image;
     params
         .effects()
         .apply(&mut image, input.depth, veil, seed)
-        .map_err(|e| failed(&e))?;
+        .map_err(|e| failed(e.into()))?;
     let recorded = RevisedRecord::new(
         seathru,
         f64::from(params.forward_scatter),

@@ -472,7 +472,7 @@ impl Engine {
             let image = self.reference(i)?;
             let prepared = job
                 .reference(&i.to_string(), || Ok(image))
-                .map_err(ServeError::BadRequest)?;
+                .map_err(|e| ServeError::BadRequest(e.to_string()))?;
             Some(prepared)
         } else {
             None

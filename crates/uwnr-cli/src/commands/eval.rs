@@ -109,7 +109,7 @@ fn full_reference(
                     Err(e) => b.fail(p.clone(), e),
                 }
             }
-            r.map_err(|e| format!("{name}: {e:#}"))
+            r.map_err(|e| format!("{name}: {}", crate::report::line(&e)))
         })
         .collect();
     if let Ok(b) = batch.into_inner() {
@@ -182,7 +182,7 @@ fn no_reference(
                     Err(e) => b.fail(p.clone(), e),
                 }
             }
-            r.map_err(|e| format!("{}: {e:#}", p.display()))
+            r.map_err(|e| format!("{}: {}", p.display(), crate::report::line(&e)))
         })
         .collect();
     if let Ok(b) = batch.into_inner() {

@@ -6,7 +6,7 @@ use std::path::Path;
 use std::process::ExitCode;
 use std::sync::Arc;
 
-use anyhow::{Context, Result, anyhow, bail};
+use anyhow::{Context, Result, bail};
 use uwnr_core::Image;
 use uwnr_core::io::{DecodeLimits, is_image_path, load_rgb, save_rgb};
 use uwnr_render::{JobWorker, PreparedReference, ReferenceUse, RenderJob, Renderer};
@@ -97,9 +97,9 @@ pub fn run(a: &RenderArgs) -> Result<ExitCode> {
             let path = &refs[r];
             render_job
                 .reference(&path.to_string_lossy(), || {
-                    reference_image(path, &limits).map_err(|e| format!("{e:#}"))
+                    reference_image(path, &limits).map_err(Into::into)
                 })
-                .map_err(|msg| anyhow!("{msg}"))
+                .map_err(anyhow::Error::from)
         });
         let result = match reference.transpose() {
             Ok(r) => render_one(

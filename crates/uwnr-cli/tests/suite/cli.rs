@@ -163,6 +163,22 @@ fn unwritable_output_fails_cleanly() {
     ]);
     assert!(!o.status.success());
     assert!(stderr(&o).contains("out.png"), "{}", stderr(&o));
+    // The cause is said once: an error's message includes its cause, which it also keeps as its
+    // source, and the line leaves out what the message already said.
+    let file = dir.path().join("a-file");
+    std::fs::write(&file, b"x").unwrap();
+    let o = uwnr(&[
+        "render",
+        s(&sample("clean-statues.jpg")),
+        "--reference",
+        s(&sample("ref-blue.jpg")),
+        "--output",
+        s(&file.join("out.png")),
+    ]);
+    let err = stderr(&o);
+    assert!(!o.status.success());
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert_eq!(err.matches("Not a directory").count(), 1, "{err}");
 }
 
 #[test]

@@ -99,9 +99,9 @@ pub fn probe_memory(bytes: &[u8]) -> Result<(u32, u32, u64)> {
     let path = Path::new(MEMORY_SOURCE);
     let decoder = ImageReader::new(Cursor::new(bytes))
         .with_guessed_format()
-        .map_err(|e| decode_error(path, e.to_string()))?
+        .map_err(|e| decode_error(path, e))?
         .into_decoder()
-        .map_err(|e| decode_error(path, e.to_string()))?;
+        .map_err(|e| decode_error(path, e))?;
     let (w, h) = decoder.dimensions();
     Ok((w, h, u64::from(decoder.color_type().bytes_per_pixel())))
 }
@@ -192,10 +192,10 @@ fn read_file(path: &Path) -> Result<Vec<u8>> {
     })
 }
 
-fn decode_error(path: &Path, reason: impl Into<String>) -> CoreError {
+fn decode_error(path: &Path, reason: impl Into<crate::error::Cause>) -> CoreError {
     CoreError::Decode {
         path: path.to_path_buf(),
-        reason: reason.into(),
+        source: reason.into(),
     }
 }
 
@@ -207,7 +207,7 @@ fn decode(bytes: &[u8], path: &Path, limits: &DecodeLimits) -> Result<DynamicIma
     let reader = |limits: Limits| -> Result<ImageReader<Cursor<&[u8]>>> {
         let mut r = ImageReader::new(Cursor::new(bytes))
             .with_guessed_format()
-            .map_err(|e| decode_error(path, e.to_string()))?;
+            .map_err(|e| decode_error(path, e))?;
         if r.format().is_none() {
             return Err(decode_error(path, "unrecognised image format"));
         }
@@ -218,9 +218,7 @@ fn decode(bytes: &[u8], path: &Path, limits: &DecodeLimits) -> Result<DynamicIma
     // oversized image is reported with its dimensions.
     let probe = reader(Limits::no_limits())?;
     let format = probe.format();
-    let (width, height) = probe
-        .into_dimensions()
-        .map_err(|e| decode_error(path, e.to_string()))?;
+    let (width, height) = probe.into_dimensions().map_err(|e| decode_error(path, e))?;
     check_limits(path, width, height, limits)?;
     if format == Some(ImageFormat::Jpeg) {
         check_jpeg_complete(bytes).map_err(|reason| decode_error(path, reason))?;
@@ -237,11 +235,10 @@ fn decode(bytes: &[u8], path: &Path, limits: &DecodeLimits) -> Result<DynamicIma
     );
     let mut decoder = reader(decoder_limits)?
         .into_decoder()
-        .map_err(|e| decode_error(path, e.to_string()))?;
+        .map_err(|e| decode_error(path, e))?;
     // A malformed EXIF block should not make an otherwise readable image unreadable.
     let orientation = decoder.orientation().ok();
-    let mut image =
-        DynamicImage::from_decoder(decoder).map_err(|e| decode_error(path, e.to_string()))?;
+    let mut image = DynamicImage::from_decoder(decoder).map_err(|e| decode_error(path, e))?;
     if let Some(o) = orientation {
         image.apply_orientation(o);
     }

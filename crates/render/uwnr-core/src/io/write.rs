@@ -45,7 +45,7 @@ pub fn save_rgb16(path: &Path, img: &Image) -> Result<()> {
     if output_format(path)? != ImageFormat::Png {
         return Err(CoreError::Encode {
             path: path.to_path_buf(),
-            reason: "16-bit images can only be saved as PNG".into(),
+            source: "16-bit images can only be saved as PNG".into(),
         });
     }
     let (w, h) = checked_size(path, img, 3)?;
@@ -72,7 +72,7 @@ pub fn save_gray16(path: &Path, img: &Image) -> Result<()> {
     if output_format(path)? != ImageFormat::Png {
         return Err(CoreError::Encode {
             path: path.to_path_buf(),
-            reason: "16-bit images can only be saved as PNG".into(),
+            source: "16-bit images can only be saved as PNG".into(),
         });
     }
     let (w, h) = checked_size(path, img, 1)?;
@@ -210,7 +210,8 @@ fn output_format(path: &Path) -> Result<ImageFormat> {
     } else {
         Err(CoreError::Encode {
             path: path.to_path_buf(),
-            reason: format!("unsupported output extension {ext:?} (use .png, .jpg or .jpeg)"),
+            source: format!("unsupported output extension {ext:?} (use .png, .jpg or .jpeg)")
+                .into(),
         })
     }
 }
@@ -230,7 +231,7 @@ fn checked_size(path: &Path, img: &Image, channels: usize) -> Result<(u32, u32)>
     }
     let too_big = || CoreError::Encode {
         path: path.to_path_buf(),
-        reason: format!("{}x{} is too large to encode", img.width(), img.height()),
+        source: format!("{}x{} is too large to encode", img.width(), img.height()).into(),
     };
     Ok((
         u32::try_from(img.width()).map_err(|_| too_big())?,
@@ -255,7 +256,7 @@ fn encode(
     };
     result.map_err(|e| CoreError::Encode {
         path: PathBuf::from(path),
-        reason: e.to_string(),
+        source: e.into(),
     })?;
     Ok(out)
 }

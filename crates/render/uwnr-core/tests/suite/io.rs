@@ -43,9 +43,9 @@ fn files_in(dir: &Path) -> Vec<String> {
 
 fn assert_decode_error(result: uwnr_core::Result<Image>, what: &str) {
     match result {
-        Err(CoreError::Decode { reason, .. }) => {
-            println!("{what}: {reason}");
-            assert!(!reason.is_empty());
+        Err(CoreError::Decode { source, .. }) => {
+            println!("{what}: {source}");
+            assert!(!source.to_string().is_empty());
         }
         other => panic!("{what}: expected a decode error, got {other:?}"),
     }
@@ -318,9 +318,9 @@ fn failed_saves_leave_nothing_behind() {
 
     // Unknown extension.
     match save_rgb(&dir.path().join("out.gif"), &img) {
-        Err(CoreError::Encode { path, reason }) => {
+        Err(CoreError::Encode { path, source }) => {
             assert!(path.ends_with("out.gif"));
-            assert!(reason.contains("gif"));
+            assert!(source.to_string().contains("gif"));
         }
         other => panic!("expected an encode error, got {other:?}"),
     }

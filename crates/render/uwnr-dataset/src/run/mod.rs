@@ -44,7 +44,7 @@ use crate::manifest::{
 };
 use crate::plan::{Shard, Size, discover_images};
 use crate::renderer::Renderer;
-use uwnr_render::{Camera, DepthPolicy, JobWorker};
+use uwnr_render::{Camera, DepthPolicy, JobWorker, ReferenceError};
 
 /// What to generate.
 #[derive(Clone, Debug)]
@@ -155,8 +155,8 @@ enum Msg {
     Failed(Failure),
 }
 
-/// Per-reference light fields, each computed once; `Err` for unreadable references.
-type RefCache = Vec<OnceLock<std::result::Result<Arc<ReferenceStyle>, String>>>;
+/// Per-reference styles, each computed once; `Err` for unreadable references.
+type RefCache = Vec<OnceLock<std::result::Result<Arc<ReferenceStyle>, ReferenceError>>>;
 
 /// Generates (or finishes) the dataset in `out`.
 ///

@@ -11,7 +11,7 @@ use uwnr_core::io::{DecodeLimits, load_rgb, save_gray16, save_rgb};
 use uwnr_core::resize::resize_bilinear;
 use uwnr_depth::PreparedDepth;
 use uwnr_model::ReferenceStyle;
-use uwnr_render::{Camera, JobWorker, MethodRecord, Rendered};
+use uwnr_render::{Camera, JobWorker, MethodRecord, ReferenceError, Rendered};
 
 use super::{Msg, RefCache, Spec, fit, fit_geometry};
 use crate::labels::{Fit, Labels, PairLabels};
@@ -198,14 +198,14 @@ impl Context<'_> {
             let entry = self.ref_cache[r].get_or_init(|| {
                 let path = &self.refs[r];
                 let lf = load_rgb(path, self.limits)
-                    .map_err(|e| e.to_string())
+                    .map_err(|e| Arc::new(e) as ReferenceError)
                     .and_then(|img| {
                         self.renderer
                             .reference_style(&img, self.spec.save_lightfield)
-                            .map_err(|e| e.to_string())
+                            .map_err(|e| Arc::new(e) as ReferenceError)
                     });
-                if let Err(reason) = &lf {
-                    first_failure = Some(reason.clone());
+                if let Err(e) = &lf {
+                    first_failure = Some(e.to_string());
                 }
                 lf.map(Arc::new)
             });

@@ -172,7 +172,7 @@ fn decode_le<const N: usize>(bytes: &[u8], f: impl Fn([u8; N]) -> f32) -> Vec<f3
 pub(super) fn read_checkpoint_tensors(path: &Path, name: &str) -> Result<(TensorMap, WeightsInfo)> {
     let ck_err = |e: PytorchError| ModelError::Checkpoint {
         source_name: name.to_string(),
-        reason: e.to_string(),
+        source: e.into(),
     };
     // The authors' checkpoints nest the state dict under "G1"; a bare state dict has none.
     let reader = match PytorchReader::with_top_level_key(path, CHECKPOINT_STATE_KEY) {
@@ -185,7 +185,7 @@ pub(super) fn read_checkpoint_tensors(path: &Path, name: &str) -> Result<(Tensor
     for (key, tensor) in reader.into_tensors() {
         let bytes = tensor.read().map_err(|e| ModelError::Checkpoint {
             source_name: name.to_string(),
-            reason: e.to_string(),
+            source: e.into(),
         })?;
         let (data, dtype) = match tensor.dtype() {
             TorchDType::F32 => (
@@ -223,7 +223,7 @@ pub(super) fn read_checkpoint_tensors(path: &Path, name: &str) -> Result<(Tensor
     if tensors.is_empty() {
         return Err(ModelError::Checkpoint {
             source_name: name.to_string(),
-            reason: "no tensors found".into(),
+            source: "no tensors found".into(),
         });
     }
     Ok((

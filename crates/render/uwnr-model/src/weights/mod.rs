@@ -176,7 +176,7 @@ fn serialize_safetensors(
     let mut info = metadata.clone();
     let config_json = serde_json::to_string(config).map_err(|e| ModelError::Metadata {
         key: CONFIG_METADATA_KEY.into(),
-        reason: e.to_string(),
+        source: e,
     })?;
     info.insert(CONFIG_METADATA_KEY.into(), config_json);
     serialize_tensors(tensors, dtype, &info, path)
@@ -194,7 +194,7 @@ fn with_config(tensors: TensorMap, info: WeightsInfo) -> Result<LoadedWeights> {
             let config: GeneratorConfig =
                 serde_json::from_str(json).map_err(|e| ModelError::Metadata {
                     key: CONFIG_METADATA_KEY.into(),
-                    reason: e.to_string(),
+                    source: e,
                 })?;
             config.validate()?;
             config
