@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Trains the bundled default model (v4, the `anchored` variant with detail retention:
-# crates/render/uwnr-model/src/style.rs) with config tools/train_default_model.json (CONFIG= another):
+# crates/render/uwnr-model/src/style/mod.rs) with config tools/train_default_model.json (CONFIG= another):
 # base width 32, inputs clean + absolute light field + the anchor (Reinhard lαβ transfer with
 # the reference's light field and share of detail retained), output a smooth gain and offset on the anchor, then the
 # depth-driven image-formation stage (depth is not fed to the network). Loss: L1 + 0.5 (1 - SSIM).
