@@ -1,14 +1,11 @@
-//! What a render method records: the settings a dataset compares on every resume
-//! ([`NetworkRecord`], [`GanRecord`]), and what each render records of itself ([`MethodRecord`],
-//! a pair's `params` in a dataset's manifest).
+//! What a render records of itself ([`MethodRecord`], a pair's `params` in a dataset's
+//! manifest), and the fingerprint of the weights a dataset records with its settings.
 
 use serde::{Deserialize, Serialize, Serializer};
 use uwnr_baselines::BaselineRecord;
 use uwnr_baselines::record::{CoefficientsRecord, SeathruRecord};
 use uwnr_model::water::Affine;
-use uwnr_model::{DepthResponse, DepthScale, GeneratorConfig, WaterEffects};
-
-use crate::method::Precision;
+use uwnr_model::{DepthResponse, DepthScale};
 
 /// The parameters one render used, drawn values included: one typed record per method.
 ///
@@ -165,33 +162,6 @@ pub enum DepthRecord {
     Metric { max_m: f64, trust: f64 },
     /// Depth in metres as given.
     Absolute { trust: f64 },
-}
-
-/// What the settings record of the network.
-#[derive(Serialize)]
-pub(crate) struct NetworkRecord<'a> {
-    pub weights: &'a str,
-    pub fingerprint: &'a str,
-    pub config: &'a GeneratorConfig,
-    /// `bf16` for bf16 products, whose renders differ from f32's by up to one level; absent for
-    /// f32 (so datasets made before this field resume unchanged).
-    #[serde(skip_serializing_if = "is_f32")]
-    pub precision: Precision,
-    /// The stages after the water; absent when none runs.
-    #[serde(skip_serializing_if = "WaterEffects::is_none")]
-    pub effects: &'a WaterEffects,
-}
-
-fn is_f32(p: &Precision) -> bool {
-    *p == Precision::F32
-}
-
-/// What the settings record of the GAN baseline.
-#[derive(Serialize)]
-pub(crate) struct GanRecord<'a> {
-    pub weights: &'a str,
-    pub fingerprint: &'a str,
-    pub config: &'a uwnr_gan::GeneratorConfig,
 }
 
 /// The fingerprint of weight bytes recorded with a dataset, so a resumed run cannot switch

@@ -4,6 +4,7 @@
 use std::path::Path;
 use std::sync::Arc;
 
+use serde::Serialize;
 use serde_json::{Map, Value};
 use uwnr_baselines::{Method, RenderInput};
 use uwnr_core::Image;
@@ -17,9 +18,7 @@ use crate::haze::{self, HazeParams};
 use crate::method::{
     ComputeDevice, MethodKind, MethodSpec, Precision, ReferenceUse, UwganSpec, UwnrSpec,
 };
-use crate::record::{
-    GanRecord, MethodRecord, NetworkRecord, UwganRecord, UwnrRecord, depth_record, fingerprint,
-};
+use crate::record::{MethodRecord, UwganRecord, UwnrRecord, depth_record, fingerprint};
 use crate::revised::{self, RevisedParams};
 
 /// The UWNR model, loaded.
@@ -484,7 +483,7 @@ fn mean_colour(img: &Image) -> [f32; 3] {
     })
 }
 
-pub(crate) fn failed(context: &str, e: impl Into<Cause>) -> RenderError {
+fn failed(context: &str, e: impl Into<Cause>) -> RenderError {
     RenderError::Failed {
         context: context.into(),
         source: e.into(),
@@ -561,6 +560,33 @@ fn load_gan(s: &UwganSpec) -> Result<Gan> {
         fingerprint: fingerprint(&bytes),
         weights,
     })
+}
+
+/// What the settings record of the network.
+#[derive(Serialize)]
+struct NetworkRecord<'a> {
+    weights: &'a str,
+    fingerprint: &'a str,
+    config: &'a GeneratorConfig,
+    /// `bf16` for bf16 products, whose renders differ from f32's by up to one level; absent for
+    /// f32 (so datasets made before this field resume unchanged).
+    #[serde(skip_serializing_if = "is_f32")]
+    precision: Precision,
+    /// The stages after the water; absent when none runs.
+    #[serde(skip_serializing_if = "WaterEffects::is_none")]
+    effects: &'a WaterEffects,
+}
+
+fn is_f32(p: &Precision) -> bool {
+    *p == Precision::F32
+}
+
+/// What the settings record of the GAN baseline.
+#[derive(Serialize)]
+struct GanRecord<'a> {
+    weights: &'a str,
+    fingerprint: &'a str,
+    config: &'a uwnr_gan::GeneratorConfig,
 }
 
 #[cfg(test)]

@@ -74,7 +74,10 @@ pub fn render(
     seed: u64,
 ) -> Result<(uwnr_core::Image, MethodRecord)> {
     params.validate()?;
-    let failed = |e: Cause| crate::renderer::failed("rendering with revised", e);
+    let failed = |e: Cause| RenderError::Failed {
+        context: "rendering with revised".into(),
+        source: e,
+    };
     let rendered =
         uwnr_baselines::render(&params.baseline(), input, seed).map_err(|e| failed(e.into()))?;
     let BaselineRecord::Seathru(seathru) = rendered.params else {
