@@ -17,7 +17,7 @@
 //! made it or when. A complete run rewrites its manifest in pair order, so the same command gives
 //! byte-identical folders whatever `jobs` is.
 
-use std::collections::{HashMap, HashSet};
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::mpsc::sync_channel;
@@ -33,14 +33,15 @@ use uwnr_model::ReferenceStyle;
 use crate::labels::{Fit, LABELS_DIR, LabelInputs, Labels, MASKS_DIR};
 use crate::target::{StrengthSummary, WaterTarget};
 
+mod resume;
 mod worker;
+use resume::remove_stale_temps;
 use worker::Context;
 
 use crate::error::{DatasetError, Result, io_err};
 use crate::manifest::{
-    CLEAN_DIR, DEPTH_DIR, FORMAT, Failure, LIGHTFIELD_DIR, ManifestWriter, PAIR_DIRS, Record,
-    Settings, UNDERWATER_DIR, failed_name, manifest_name, read_manifest, temp_target,
-    write_failures, write_manifest,
+    CLEAN_DIR, DEPTH_DIR, FORMAT, Failure, LIGHTFIELD_DIR, ManifestWriter, Record, Settings,
+    UNDERWATER_DIR, failed_name, manifest_name, read_manifest, write_failures, write_manifest,
 };
 use crate::plan::{Shard, Size, discover_images};
 use crate::renderer::Renderer;
@@ -339,24 +340,13 @@ fn generate_in(
     let manifest_path = out.join(manifest_name(opts.shard));
     let existing = read_manifest(&manifest_path)?;
     existing.refuse_unsafe_paths(&manifest_path)?;
-    let mut kept: Vec<Record> = Vec::new();
-    let mut done: HashSet<String> = HashSet::new();
-    let mut dropped = existing.bad_lines.len() + usize::from(existing.torn_tail);
-    for (_, r) in existing.records {
-        let valid = by_id.get(r.id.as_str()).is_some_and(|p| p.index == r.index)
-            && !done.contains(&r.id)
-            && r.depth.is_some() == spec.save_depth
-            && r.lightfield.is_some() == spec.save_lightfield
-            && r.labels.is_some() == settings.labels.is_some()
-            && r.mask.is_some() == settings.masks.is_some()
-            && r.files().all(|f| out.join(f).is_file());
-        if valid {
-            done.insert(r.id.clone());
-            kept.push(r);
-        } else {
-            dropped += 1;
-        }
-    }
+    let wants = resume::PairFiles {
+        depth: spec.save_depth,
+        lightfield: spec.save_lightfield,
+        labels: settings.labels.is_some(),
+        mask: settings.masks.is_some(),
+    };
+    let (mut kept, mut done, dropped) = resume::kept_pairs(out, existing, &by_id, wants);
     // Labels changed since the last run: fine for images none of whose pairs is made (their
     // pairs failed: the fix lets them be made), refused for the others, naming the file.
     if !label_changes.is_empty() {
@@ -531,33 +521,6 @@ fn generate_in(
     }
     summary.secs = start.elapsed().as_secs_f64();
     Ok(summary)
-}
-
-/// Removes temporary files left by killed runs: in an unsharded run all of them; in a shard only
-/// those of its own pairs (another shard may be writing the rest right now).
-fn remove_stale_temps(
-    out: &Path,
-    dirs: &[&str],
-    owned: &HashMap<&str, &crate::manifest::PlannedPair>,
-    all: bool,
-) -> Result<()> {
-    for d in PAIR_DIRS.iter().filter(|d| dirs.contains(d)) {
-        let dir = out.join(d);
-        for entry in std::fs::read_dir(&dir).map_err(io_err(&dir))? {
-            let entry = entry.map_err(io_err(&dir))?;
-            let name = entry.file_name().to_string_lossy().into_owned();
-            let Some(target) = temp_target(&name) else {
-                continue;
-            };
-            // `NAME_k.png`, `NAME_k.json`...: the pair's id is the name without its extension.
-            let id = target.rsplit_once('.').map_or(target, |(id, _)| id);
-            if all || owned.contains_key(id) {
-                let p = entry.path();
-                std::fs::remove_file(&p).map_err(io_err(&p))?;
-            }
-        }
-    }
-    Ok(())
 }
 
 /// The clean image as the pair holds it: fitted to the pair size (cover and centre-crop for a
