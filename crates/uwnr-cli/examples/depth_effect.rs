@@ -9,12 +9,14 @@
 //! `cargo run --release -p uwnr-cli --example depth_effect`
 
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use uwnr_baselines::{BackgroundPick, Method, RenderInput, quadtree_background};
 use uwnr_core::Image;
 use uwnr_core::io::{DecodeLimits, load_rgb};
 use uwnr_depth::{Depth, DepthUnit};
 use uwnr_model::{DepthResponse, RenderOptions, style};
+use uwnr_render::{MethodKind, MethodSpec, PreparedReference, Renderer};
 
 const DATA: &str = "../shared/data";
 /// Photos with dense measured depth, and the unit their maps are stored in (SUN RGB-D's sample
@@ -136,7 +138,8 @@ fn main() {
         .unwrap();
     let styles: Vec<_> = refs.iter().map(|r| net.style(r).unwrap()).collect();
     let (gan, _, _) = uwnr_gan::generator_or_bundled(None).unwrap();
-    let render_uwnr = |clean: &Image, depth: &Depth, r: usize, response: DepthResponse| {
+    // The model's stages alone (no water's effects), as v5 rendered.
+    let render_stages = |clean: &Image, depth: &Depth, r: usize, response: DepthResponse| {
         net.render(
             clean,
             &depth.map,
@@ -148,6 +151,31 @@ fn main() {
         )
         .unwrap()
     };
+    // What `uwnr render` runs: the bundled model with the water's effects after it.
+    // UWNR_EFFECTS='{"particles": 0, ...}' measures another setting of the effects.
+    let mut spec = MethodSpec::defaults(MethodKind::Uwnr, true);
+    if let (Ok(json), MethodSpec::Uwnr(s)) = (std::env::var("UWNR_EFFECTS"), &mut spec) {
+        s.effects = serde_json::from_str(&json).expect("UWNR_EFFECTS: a WaterEffects JSON");
+        eprintln!("effects: {json}");
+    }
+    let uwnr = Renderer::load(spec).unwrap();
+    let prepared: Vec<PreparedReference> = refs
+        .iter()
+        .map(|r| uwnr.prepare_reference(Arc::new(r.clone())).unwrap())
+        .collect();
+    let worker = uwnr.worker();
+    let render_uwnr = |clean: &Image, depth: &Depth, r: usize, response: DepthResponse| {
+        worker
+            .render(
+                clean,
+                &depth.map,
+                &response,
+                Some(prepared[r].input()),
+                r as u64,
+            )
+            .unwrap()
+            .image
+    };
     let baseline = |m: &Method, clean: &Image, depth: &Depth, reference: &Image, seed: u64| {
         let input = RenderInput {
             clean,
@@ -157,17 +185,26 @@ fn main() {
         uwnr_baselines::render(m, &input, seed).unwrap().image
     };
     let scene = style::DEFAULT_SCENE_SCALE_M;
-    let methods: Vec<(&str, RenderFn<'_>)> = vec![
+    // (row, reads the metric map, render)
+    let methods: Vec<(&str, bool, RenderFn<'_>)> = vec![
         (
             "`uwnr`, metric map (`--depth-unit mm`), trusted",
+            true,
             Box::new(|c, d, _, r| render_uwnr(c, d, r, DepthResponse::for_depth(d, scene, 1.0))),
         ),
         (
+            "`uwnr`, metric map, trusted, the model's stages alone (no water's effects)",
+            true,
+            Box::new(|c, d, _, r| render_stages(c, d, r, DepthResponse::for_depth(d, scene, 1.0))),
+        ),
+        (
             "`uwnr`, normalised map (`--depth-normalize`), trusted, 4 m",
+            false,
             Box::new(|c, d, _, r| render_uwnr(c, d, r, DepthResponse::for_depth(d, scene, 1.0))),
         ),
         (
             "`uwnr`, normalised map at the prior's trust (v4's response)",
+            false,
             Box::new(|c, d, _, r| {
                 render_uwnr(
                     c,
@@ -182,12 +219,14 @@ fn main() {
         ),
         (
             "`reinhard`",
+            false,
             Box::new(|c, d, reference, _| {
                 baseline(&Method::Reinhard(Default::default()), c, d, reference, 0)
             }),
         ),
         (
             "`jerlov`",
+            false,
             Box::new(|c, d, reference, r| {
                 baseline(
                     &Method::Jerlov(Default::default()),
@@ -200,12 +239,14 @@ fn main() {
         ),
         (
             "`uisa`",
+            false,
             Box::new(|c, d, reference, _| {
                 baseline(&Method::Uisa(Default::default()), c, d, reference, 0)
             }),
         ),
         (
             "`seathru` (from the reference)",
+            false,
             Box::new(|c, d, reference, _| {
                 let p = uwnr_baselines::SeathruParams {
                     coefficients: uwnr_baselines::SeathruCoefficients::FromReference(
@@ -218,6 +259,7 @@ fn main() {
         ),
         (
             "`uwgan`",
+            false,
             Box::new(|c, d, _, r| uwnr_gan::render(&gan, c, &d.map, r as u64).unwrap()),
         ),
     ];
@@ -226,10 +268,10 @@ fn main() {
         "| method | depth effect, median (min-max) | far part nearer the veil than near part, renders |"
     );
     println!("|---|---|---|");
-    for (k, (name, render)) in methods.iter().enumerate() {
+    for (name, metric, render) in &methods {
         let (mut effects, mut towards, mut total) = (Vec::new(), 0usize, 0usize);
         for p in &photos {
-            let depth = if k == 0 { &p.metric } else { &p.relative };
+            let depth = if *metric { &p.metric } else { &p.relative };
             let flat = constant(depth);
             for (r, reference) in refs.iter().enumerate() {
                 let real = render(&p.clean, depth, reference, r);
