@@ -190,4 +190,3 @@ fn cv_resize_area_fast2(src: &U8Image, dw: usize, dh: usize) -> U8Image {
         data: out,
     }
 }
-

@@ -91,4 +91,3 @@ pub fn pil_resize_bilinear_u8(src: &U8Image, width: usize, height: usize) -> Res
         });
     U8Image::new(tmp_w, height, cn, out)
 }
-
