@@ -32,7 +32,8 @@ impl Serialize for MethodRecord {
             Self::Uwgan(r) => serde_json::to_value(r),
             Self::Baseline(r) => serde_json::to_value(r),
             Self::Physical(r) => serde_json::to_value(r),
-            Self::Earlier(v) => Ok(v.clone()),
+            // Already a value (its keys sorted as read): written as it is, not copied.
+            Self::Earlier(v) => return v.serialize(serializer),
         };
         value
             .map_err(|e| serde::ser::Error::custom(e.to_string()))?
