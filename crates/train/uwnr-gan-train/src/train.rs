@@ -84,7 +84,7 @@ pub enum GanLoss {
 
 impl GanLoss {
     /// The discriminator's loss on its logits for real and fake patches.
-    fn discriminator(self, real: Tensor<4>, fake: Tensor<4>) -> Tensor<1> {
+    pub fn discriminator(self, real: Tensor<4>, fake: Tensor<4>) -> Tensor<1> {
         match self {
             Self::NonSaturating => softplus(real.neg()).mean() + softplus(fake).mean(),
             Self::LeastSquares => {
@@ -94,7 +94,7 @@ impl GanLoss {
     }
 
     /// The generator's loss on the discriminator's logits for its renders.
-    fn generator(self, fake: Tensor<4>) -> Tensor<1> {
+    pub fn generator(self, fake: Tensor<4>) -> Tensor<1> {
         match self {
             Self::NonSaturating => softplus(fake.neg()).mean(),
             Self::LeastSquares => (fake - 1.0).powi_scalar(2).mean(),

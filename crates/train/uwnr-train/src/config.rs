@@ -10,8 +10,9 @@ use std::path::Path;
 
 use serde::{Deserialize, Deserializer, Serialize};
 use uwnr_depth::DepthSource;
-use uwnr_model::GeneratorConfig;
+use uwnr_gan_train::{DiscriminatorConfig, GanLoss};
 use uwnr_model::config::SIZE_MULTIPLE;
+use uwnr_model::{GeneratorConfig, Variant};
 use uwnr_run::RunSettings;
 
 use crate::error::{Result, TrainError};
@@ -157,6 +158,94 @@ impl Default for AugmentConfig {
     }
 }
 
+/// Adversarial training of the anchored variant's correction ([`crate::adversarial`]): the
+/// generator's objective is `weight · L_G(D(render)) + content · L1(render, uncorrected)` plus
+/// the paired terms of [`LossWeights`] (set them to 0 when the "underwater" side of each pair
+/// is a reference of another scene), and the discriminator learns the real photos (each
+/// pair's underwater side) from the renders.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct AdversarialConfig {
+    /// Weight of the generator's adversarial term.
+    pub weight: f64,
+    /// Weight of the content term: L1 between the render and the same render without
+    /// correction (the anchor through the depth stage), which keeps the water and its strength.
+    pub content: f64,
+    /// The discriminator sees renders and real photos average-pooled by this factor: the
+    /// correction is a smooth gain and offset, so the discriminator judges what it can change
+    /// (colour and light over the frame) rather than texture it cannot.
+    pub downsample: usize,
+    /// The adversarial loss.
+    pub loss: GanLoss,
+    /// The PatchGAN discriminator.
+    pub discriminator: DiscriminatorConfig,
+}
+
+impl Default for AdversarialConfig {
+    fn default() -> Self {
+        Self {
+            weight: 0.1,
+            content: 1.0,
+            downsample: 4,
+            loss: GanLoss::LeastSquares,
+            discriminator: DiscriminatorConfig {
+                width: 32,
+                layers: 2,
+            },
+        }
+    }
+}
+
+impl AdversarialConfig {
+    /// Checks the fields against the run's `cfg`: an anchored model with a correction, finite
+    /// non-negative weights, and a pooled crop the discriminator can read.
+    pub fn validate(&self, cfg: &TrainConfig) -> Result<()> {
+        let bad =
+            |field: &'static str, reason: String| Err(TrainError::InvalidConfig { field, reason });
+        if cfg.model.variant != Variant::Anchored || !cfg.model.runs_network() {
+            return bad(
+                "adversarial",
+                "trains the anchored variant's correction: needs model.variant \"anchored\" \
+                 with a network correction"
+                    .into(),
+            );
+        }
+        for (field, v) in [
+            ("adversarial.weight", self.weight),
+            ("adversarial.content", self.content),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return bad(field, format!("{v} must be finite and >= 0"));
+            }
+        }
+        if self.downsample == 0 || !cfg.crop.is_multiple_of(self.downsample) {
+            return bad(
+                "adversarial.downsample",
+                format!(
+                    "{} must be at least 1 and divide the crop {}",
+                    self.downsample, cfg.crop
+                ),
+            );
+        }
+        if let Err(e) = self.discriminator.validate() {
+            return bad("adversarial.discriminator", e.to_string());
+        }
+        let seen = cfg.crop / self.downsample;
+        if seen < self.discriminator.min_input() {
+            return bad(
+                "adversarial.downsample",
+                format!(
+                    "the discriminator sees {seen} px (crop {} / {}), below its smallest input {}",
+                    cfg.crop,
+                    self.downsample,
+                    self.discriminator.min_input()
+                ),
+            );
+        }
+        Ok(())
+    }
+}
+
 /// A training run's configuration.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -197,6 +286,11 @@ pub struct TrainConfig {
     /// Use at most this many pairs of each data folder (the first ones in name order);
     /// `None` = all.
     pub max_pairs_per_dir: Option<usize>,
+    /// Train the anchored variant's correction against real underwater photos with a
+    /// discriminator ([`crate::adversarial`]); `None` (the default) is the paper's paired
+    /// training.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub adversarial: Option<AdversarialConfig>,
     /// Seed (of the weight initialisation, the data order and the augmentation), logging,
     /// validation, checkpoint and prefetch cadence; their keys sit at the top level of the
     /// JSON.
@@ -229,6 +323,7 @@ impl Default for TrainConfig {
             small_images: SmallImagePolicy::default(),
             depth: DepthSource::Builtin,
             max_pairs_per_dir: None,
+            adversarial: None,
             run: RunSettings::defaults(PAPER_SEED, 10),
         }
     }
@@ -312,6 +407,9 @@ impl TrainConfig {
                     format!("{:?} must be 0 < min <= max", c.gamma),
                 );
             }
+        }
+        if let Some(a) = &self.adversarial {
+            a.validate(self)?;
         }
         self.run.validate()?;
         Ok(())
@@ -460,6 +558,76 @@ mod tests {
                 Err(TrainError::InvalidConfig { field: f, .. }) => assert_eq!(f, field),
                 other => panic!("expected InvalidConfig for {field}, got {other:?}"),
             }
+        }
+    }
+
+    #[test]
+    fn an_adversarial_run_needs_an_anchored_correction_and_a_readable_pool() {
+        let anchored = GeneratorConfig::anchored(8);
+        let ok = TrainConfig {
+            model: anchored.clone(),
+            crop: 64,
+            adversarial: Some(AdversarialConfig::default()),
+            ..TrainConfig::default()
+        };
+        ok.validate().unwrap();
+        let back: TrainConfig = serde_json::from_str(&ok.to_json().unwrap()).unwrap();
+        assert_eq!(back, ok);
+        // A config without the field writes none (earlier files read back unchanged).
+        assert!(
+            !TrainConfig::default()
+                .to_json()
+                .unwrap()
+                .contains("adversarial")
+        );
+        let field_of = |c: TrainConfig| match c.validate() {
+            Err(TrainError::InvalidConfig { field, .. }) => field,
+            other => panic!("expected InvalidConfig, got {other:?}"),
+        };
+        let paper = TrainConfig {
+            model: GeneratorConfig::with_base_width(8),
+            ..ok.clone()
+        };
+        assert_eq!(field_of(paper), "adversarial");
+        let no_network = TrainConfig {
+            model: GeneratorConfig {
+                correction: uwnr_model::Correction::None,
+                ..anchored
+            },
+            ..ok.clone()
+        };
+        assert_eq!(field_of(no_network), "adversarial");
+        let with = |a: AdversarialConfig| TrainConfig {
+            adversarial: Some(a),
+            ..ok.clone()
+        };
+        let d = AdversarialConfig::default();
+        // 64 / 3 is not whole; 64 / 16 = 4 px is below the 2-layer discriminator's 12.
+        for (a, field) in [
+            (
+                AdversarialConfig { downsample: 3, ..d },
+                "adversarial.downsample",
+            ),
+            (
+                AdversarialConfig {
+                    downsample: 16,
+                    ..d
+                },
+                "adversarial.downsample",
+            ),
+            (
+                AdversarialConfig { weight: -1.0, ..d },
+                "adversarial.weight",
+            ),
+            (
+                AdversarialConfig {
+                    content: f64::NAN,
+                    ..d
+                },
+                "adversarial.content",
+            ),
+        ] {
+            assert_eq!(field_of(with(a)), field);
         }
     }
 }

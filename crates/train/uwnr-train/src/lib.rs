@@ -12,6 +12,8 @@
 //!   sample, a pure function of `(seed, epoch, position)`;
 //! - [`losses`], [`vgg`]: L1, VGG19 perceptual (or an SSIM stand-in), underwater dark channel,
 //!   light-field consistency;
+//! - [`adversarial`]: the anchored variant's correction trained against real underwater photos
+//!   with a discriminator (`config.adversarial`) instead of paired targets;
 //! - [`trainer::train`]: UWNR's task (step, validation, `generator.safetensors`) on
 //!   [`uwnr_run::train`], which owns the loop, logs, curves, checkpoints and exact resume.
 //!
@@ -27,6 +29,7 @@
 //! # }
 //! ```
 
+pub mod adversarial;
 pub mod augment;
 pub mod burn_render;
 pub mod burn_style;
@@ -40,14 +43,15 @@ pub mod losses;
 pub mod trainer;
 pub mod vgg;
 
+pub use adversarial::{ADVERSARIAL_TERMS, Critic, adversarial_step};
 pub use burn_render::{BurnForward, RenderOn, network_from_generator};
 pub use burn_weights::{
     generator_from_tensors, generator_to_tensors, load_generator, load_generator_from_bytes,
     read_tensor, save_generator,
 };
 pub use config::{
-    AugmentConfig, ColorCast, LightFieldLoss, LossWeights, PerceptualFallback, SmallImagePolicy,
-    TrainConfig,
+    AdversarialConfig, AugmentConfig, ColorCast, LightFieldLoss, LossWeights, PerceptualFallback,
+    SmallImagePolicy, TrainConfig,
 };
 pub use error::{Result, TrainError};
 pub use generator::{ChannelMeans, Generator, GeneratorInit};

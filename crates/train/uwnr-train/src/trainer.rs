@@ -21,6 +21,7 @@ use uwnr_run::checkpoint::RunState;
 use uwnr_run::folder::{check_run_folder, check_saved_config};
 use uwnr_run::{Event, Prepared, Schedule, Scores, Task};
 
+use crate::adversarial::AdversarialTask;
 use crate::augment::{TARGET_CHANNELS, WATER_VALUES};
 use crate::burn_render::{RenderOn, network_from_generator};
 use crate::burn_style::finish_tensor;
@@ -54,8 +55,11 @@ pub struct TrainSummary {
     pub step: usize,
     /// Steps done in this session.
     pub session_steps: usize,
-    /// `(step, losses)` of every step of this session.
+    /// `(step, losses)` of every step of this session (empty in an adversarial run).
     pub losses: Vec<(usize, LossValues)>,
+    /// `(step, [d_loss, adversarial, content, paired, total])` of every step of an adversarial
+    /// run's session ([`crate::adversarial::ADVERSARIAL_TERMS`]; empty otherwise).
+    pub adversarial: Vec<(usize, [f64; 5])>,
     /// The run reached its last epoch.
     pub finished: bool,
     /// The stop flag ended the session.
@@ -64,6 +68,25 @@ pub struct TrainSummary {
     pub best: Option<(f64, usize)>,
     /// The last validation of this session.
     pub last_val: Option<uwnr_run::ValResult>,
+}
+
+impl TrainSummary {
+    /// The loop's summary of an adversarial run: its terms go to `adversarial`.
+    fn adversarial(s: uwnr_run::Summary) -> Self {
+        let terms = s
+            .losses
+            .iter()
+            .map(|(step, v)| {
+                let g = |i: usize| v.get(i).copied().unwrap_or(f64::NAN);
+                (*step, [g(0), g(1), g(2), g(3), g(4)])
+            })
+            .collect();
+        Self {
+            adversarial: terms,
+            losses: Vec::new(),
+            ..s.into()
+        }
+    }
 }
 
 impl From<uwnr_run::Summary> for TrainSummary {
@@ -76,6 +99,7 @@ impl From<uwnr_run::Summary> for TrainSummary {
                 .iter()
                 .map(|(step, v)| (*step, LossValues::from_slice(v)))
                 .collect(),
+            adversarial: Vec::new(),
             finished: s.finished,
             interrupted: s.interrupted,
             best: s.best,
@@ -154,16 +178,19 @@ pub fn train(
         steps_per_epoch: source.batches_per_epoch(),
     };
     let session = opts.session();
-    let summary = uwnr_run::train(
-        &task,
-        source,
-        &prepared,
-        &Schedule::new(&cfg.run, cfg.epochs, cfg.batch_size, None),
-        &session,
-        stop,
-        observer,
-    )?;
-    Ok(summary.into())
+    let schedule = Schedule::new(&cfg.run, cfg.epochs, cfg.batch_size, None);
+    Ok(match cfg.adversarial {
+        None => uwnr_run::train(
+            &task, source, &prepared, &schedule, &session, stop, observer,
+        )?
+        .into(),
+        Some(adv) => {
+            let task = AdversarialTask { base: task, adv };
+            TrainSummary::adversarial(uwnr_run::train(
+                &task, source, &prepared, &schedule, &session, stop, observer,
+            )?)
+        }
+    })
 }
 
 /// The light field (and, for the anchored variant, the water) of a validation pair's real
@@ -190,11 +217,11 @@ fn reference_style(cfg: &TrainConfig, v: &ValPair) -> Result<ReferenceStyle> {
 }
 
 /// UWNR's part of a run.
-struct UwnrTask<'a> {
+pub(crate) struct UwnrTask<'a> {
     cfg: &'a TrainConfig,
     /// The autodiff training device.
     device: Device,
-    criterion: Criterion,
+    pub(crate) criterion: Criterion,
     val: Vec<ValPair>,
     val_styles: Vec<ReferenceStyle>,
     steps_per_epoch: usize,

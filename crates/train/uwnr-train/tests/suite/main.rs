@@ -2,6 +2,7 @@
 //! The `model_*` modules test burn's generator against the authors' PyTorch outputs and against
 //! the engine that renders (`uwnr-model`), whose fixtures they read.
 
+mod adversarial;
 mod common;
 mod losses;
 mod model_anchored;

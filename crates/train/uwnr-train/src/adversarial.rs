@@ -1,0 +1,252 @@
+//! Training the anchored variant's correction for realism: the MHB-Unet with the reference's
+//! light field, as in the paper, but judged by a discriminator against real underwater photos
+//! instead of by a paired target it could copy (issue text of `config.adversarial`,
+//! [`AdversarialConfig`]).
+//!
+//! The data are pairs whose underwater side is a real photo: with a paired set they are the
+//! real pairs; with `tools/realism_pairs.py`, clean photos beside references of other scenes.
+//! Each sample's light field and water come from that photo, as a render reads its reference.
+//! The anchored generator starts at zero output, so a run starts exactly at the uncorrected
+//! render (the anchor through the depth stage) and moves from it only as far as the
+//! discriminator pays for against the content term.
+//!
+//! Each step (the GAN baseline's alternation, `uwnr_gan_train`):
+//! 1. render the batch, `out = finish(G(x), anchor)`, and the same without correction,
+//!    `plain = finish(0, anchor)`;
+//! 2. `d_loss = L_D(D(pool(real)), D(pool(out)))` with `out` detached, gradients of the
+//!    discriminator only, an update;
+//! 3. `g = weight · L_G(D(pool(out))) + content · L1(out, plain) + paired terms`, with the
+//!    updated discriminator, gradients of the generator only, an update.
+//!
+//! `pool` is an average over `downsample x downsample` blocks. `metrics.csv` holds `d_loss,
+//! adversarial, content, paired, total`, the total being the generator's objective.
+
+use std::path::Path;
+
+use burn::module::Module;
+use burn::optim::{GradientsParams, ModuleOptimizer};
+use burn::tensor::module::adaptive_avg_pool2d;
+use burn::tensor::{Device, Tensor, TensorData};
+use uwnr_gan_train::Discriminator;
+use uwnr_run::checkpoint::RunState;
+use uwnr_run::{Scores, Task};
+
+use crate::augment::{TARGET_CHANNELS, WATER_VALUES};
+use crate::burn_style::finish_tensor;
+use crate::config::AdversarialConfig;
+use crate::error::{Result, TrainError};
+use crate::generator::Generator;
+use crate::loader::{Batch, BatchSpec};
+use crate::losses::{Criterion, l1};
+use crate::trainer::UwnrTask;
+
+/// `metrics.csv` columns of an adversarial run and their legend names.
+pub const ADVERSARIAL_TERMS: [(&str, &str); 5] = [
+    ("d_loss", "discriminator"),
+    ("adversarial", "generator (adversarial)"),
+    ("content", "content (L1 to the uncorrected render)"),
+    ("paired", "paired terms (weighted)"),
+    ("total", "generator total"),
+];
+
+/// The generator and its discriminator as one module, so the run checkpoints and resumes both
+/// (one optimiser, keyed by parameter ids, serves both, as in `uwnr_gan_train::Gan`).
+#[derive(Module, Debug)]
+pub struct Critic {
+    /// The MHB-Unet whose correction is trained.
+    pub generator: Generator,
+    /// The PatchGAN discriminator on pooled images.
+    pub discriminator: Discriminator,
+}
+
+/// A batch on the device: the network input, the real photos, the anchor, depth, veil, beta.
+struct BatchTensors {
+    x: Tensor<4>,
+    real: Tensor<4>,
+    anchor: Tensor<4>,
+    depth: Tensor<4>,
+    veil: Tensor<4>,
+    beta: Tensor<4>,
+}
+
+impl BatchTensors {
+    fn new(batch: &Batch, device: &Device) -> Result<Self> {
+        let (b, c) = (batch.size, batch.crop);
+        if batch.depth.is_empty() {
+            return Err(TrainError::InvalidConfig {
+                field: "adversarial",
+                reason: "the batch has no anchor (not the anchored variant)".into(),
+            });
+        }
+        let cin = batch.input.len() / (b * c * c).max(1);
+        let t4 = |v: &[f32], ch: usize| {
+            Tensor::<4>::from_data(TensorData::new(v.to_vec(), [b, ch, c, c]), device)
+        };
+        let x = t4(&batch.input, cin);
+        // The anchored variant's input planes 6..9 are the anchor.
+        let anchor = x.clone().slice([0..b, 6..9, 0..c, 0..c]);
+        let water = Tensor::<2>::from_data(
+            TensorData::new(batch.water.clone(), [b, WATER_VALUES]),
+            device,
+        );
+        Ok(Self {
+            x,
+            real: t4(&batch.target, TARGET_CHANNELS),
+            anchor,
+            depth: t4(&batch.depth, 1),
+            veil: water.clone().slice([0..b, 0..3]).reshape([b, 3, 1, 1]),
+            beta: water.slice([0..b, 3..6]).reshape([b, 3, 1, 1]),
+        })
+    }
+}
+
+/// The mean over `k x k` blocks (`k` divides the sides).
+fn pool(x: Tensor<4>, k: usize) -> Tensor<4> {
+    if k <= 1 {
+        return x;
+    }
+    let [_, _, h, w] = x.dims();
+    adaptive_avg_pool2d(x, [h / k, w / k])
+}
+
+/// Reads back a `[1]` tensor.
+fn scalar(t: Tensor<1>) -> Result<f64> {
+    let v = t.into_data().try_to_vec::<f32>().map_err(|e| {
+        TrainError::Model(uwnr_model::ModelError::Backend(format!(
+            "reading a loss value: {e:?}"
+        )))
+    })?;
+    Ok(v.first().copied().map_or(f64::NAN, f64::from))
+}
+
+/// One adversarial step (module doc): a discriminator update, then a generator update.
+/// Returns the module and `[d_loss, adversarial, content, paired, total]`.
+pub fn adversarial_step(
+    model: Critic,
+    optim: &mut ModuleOptimizer,
+    criterion: &Criterion,
+    adv: &AdversarialConfig,
+    batch: &Batch,
+    lr: f64,
+    device: &Device,
+) -> Result<(Critic, [f64; 5])> {
+    let t = BatchTensors::new(batch, device)?;
+    let raw = model.generator.forward(t.x); // [b, 6, c, c]
+    let plain = finish_tensor(
+        raw.zeros_like(),
+        t.anchor.clone(),
+        t.depth.clone(),
+        t.veil.clone(),
+        t.beta.clone(),
+    )
+    .detach();
+    let out = finish_tensor(raw, t.anchor, t.depth, t.veil, t.beta); // [b, 3, c, c]
+    let k = adv.downsample;
+
+    let real_logits = model.discriminator.forward(pool(t.real.clone(), k));
+    let fake_logits = model.discriminator.forward(pool(out.clone().detach(), k));
+    let d_loss = adv.loss.discriminator(real_logits, fake_logits);
+    let mut grads = d_loss.backward();
+    let d_grads = GradientsParams::from_module(&mut grads, &model.discriminator);
+    let model = optim.step(lr, model, d_grads);
+
+    let g_adv = adv
+        .loss
+        .generator(model.discriminator.forward(pool(out.clone(), k)));
+    let content = l1(out.clone(), plain);
+    let paired = criterion.forward(out, t.real).total;
+    let total = g_adv.clone() * adv.weight + content.clone() * adv.content + paired.clone();
+    let mut grads = total.backward();
+    let g_grads = GradientsParams::from_module(&mut grads, &model.generator);
+    let model = optim.step(lr, model, g_grads);
+    let values = [
+        scalar(d_loss.detach())?,
+        scalar(g_adv.detach())?,
+        scalar(content.detach())?,
+        scalar(paired.detach())?,
+        scalar(total.detach())?,
+    ];
+    Ok((model, values))
+}
+
+/// An adversarial run: UWNR's task (data, validation, export) with the critic's step.
+pub(crate) struct AdversarialTask<'a> {
+    pub(crate) base: UwnrTask<'a>,
+    pub(crate) adv: AdversarialConfig,
+}
+
+impl Task for AdversarialTask<'_> {
+    type Model = Critic;
+    type Error = TrainError;
+    type Source = BatchSpec;
+
+    fn loss_terms(&self) -> Vec<(String, String)> {
+        ADVERSARIAL_TERMS
+            .iter()
+            .map(|(c, l)| ((*c).to_string(), (*l).to_string()))
+            .collect()
+    }
+
+    fn device(&self) -> &Device {
+        self.base.device()
+    }
+
+    fn build(&self) -> Result<Critic> {
+        let discriminator = self
+            .adv
+            .discriminator
+            .init(self.base.device())
+            .map_err(|e| TrainError::InvalidConfig {
+                field: "adversarial.discriminator",
+                reason: e.to_string(),
+            })?;
+        Ok(Critic {
+            generator: self.base.build()?,
+            discriminator,
+        })
+    }
+
+    fn optimizer(&self) -> ModuleOptimizer {
+        self.base.optimizer()
+    }
+
+    fn lr(&self, step: usize, epoch: usize) -> f64 {
+        self.base.lr(step, epoch)
+    }
+
+    fn step(
+        &self,
+        model: Critic,
+        optim: &mut ModuleOptimizer,
+        batch: Batch,
+        _step: usize,
+        lr: f64,
+    ) -> Result<(Critic, Vec<f64>)> {
+        let (model, values) = adversarial_step(
+            model,
+            optim,
+            &self.base.criterion,
+            &self.adv,
+            &batch,
+            lr,
+            self.base.device(),
+        )?;
+        Ok((model, values.to_vec()))
+    }
+
+    fn has_validation(&self) -> bool {
+        self.base.has_validation()
+    }
+
+    fn validate(&self, model: &Critic, sheet_rows: usize) -> Result<Scores> {
+        self.base.validate(&model.generator, sheet_rows)
+    }
+
+    fn sheet_columns(&self) -> Vec<String> {
+        self.base.sheet_columns()
+    }
+
+    fn export(&self, model: &Critic, dir: &Path, state: &RunState) -> Result<()> {
+        self.base.export(&model.generator, dir, state)
+    }
+}
