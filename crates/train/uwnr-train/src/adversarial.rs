@@ -11,8 +11,8 @@
 //! discriminator pays for against the content term.
 //!
 //! Each step (the GAN baseline's alternation, `uwnr_gan_train`):
-//! 1. render the batch, `out = finish(G(x), anchor)`, and the same without correction,
-//!    `plain = finish(0, anchor)`;
+//! 1. render the batch, `out = clamp(finish(G(x), anchor), 0, 1)`, and the same without
+//!    correction, `plain = clamp(finish(0, anchor), 0, 1)`;
 //! 2. `d_loss = L_D(D(pool(real)), D(pool(out)))` with `out` detached, gradients of the
 //!    discriminator only, an update;
 //! 3. `g = weight · L_G(D(pool(out))) + content · L1(out, plain) + paired terms`, with the
@@ -139,8 +139,11 @@ pub fn adversarial_step(
         t.veil.clone(),
         t.beta.clone(),
     )
+    .clamp(0.0, 1.0)
     .detach();
-    let out = finish_tensor(raw, t.anchor, t.depth, t.veil, t.beta); // [b, 3, c, c]
+    // Clamped as a render is: values outside [0, 1] give the discriminator nothing to see and
+    // the generator no gradient to push them further (unclamped, a run diverged at step 114).
+    let out = finish_tensor(raw, t.anchor, t.depth, t.veil, t.beta).clamp(0.0, 1.0); // [b, 3, c, c]
     let k = adv.downsample;
 
     let real_logits = model.discriminator.forward(pool(t.real.clone(), k));

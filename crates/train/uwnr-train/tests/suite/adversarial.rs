@@ -56,7 +56,7 @@ fn config(epochs: usize) -> TrainConfig {
             light_field: 0.0,
         },
         adversarial: Some(AdversarialConfig {
-            downsample: 2,
+            weight: 0.1,
             ..AdversarialConfig::default()
         }),
         run: RunSettings {
