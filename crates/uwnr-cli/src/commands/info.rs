@@ -97,8 +97,8 @@ fn describe_bundled(config: &GeneratorConfig) -> Result<ExitCode> {
         "renders:     the reference's water (gain and offset per channel, read off its statistics \
          by the bundled water bank's linear regressor) on the photo's own colours{}; the depth \
          stage (farther is hazier); the effects (particles, light from above, colours the water \
-         removes; forward scattering, a medium and a vignette are off; `--method-config` sets \
-         them)",
+         removes, forward scattering that widens with distance; a medium and a vignette are \
+         off; `--method-config` sets them)",
         if config.detail_retention {
             ", with the reference's share of fine detail"
         } else {
