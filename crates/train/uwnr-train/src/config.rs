@@ -567,7 +567,7 @@ mod tests {
     fn an_adversarial_run_needs_an_anchored_correction_and_a_readable_pool() {
         let anchored = GeneratorConfig::anchored(8);
         let ok = TrainConfig {
-            model: anchored.clone(),
+            model: anchored,
             crop: 64,
             adversarial: Some(AdversarialConfig::default()),
             ..TrainConfig::default()
