@@ -154,10 +154,24 @@ pub fn train(
         ));
     }
     let criterion = Criterion::new(cfg, vgg);
-    observer(Event::Message(&format!(
-        "perceptual term: {}",
-        criterion.perceptual.describe()
-    )));
+    if cfg.loss.perceptual > 0.0 {
+        observer(Event::Message(&format!(
+            "perceptual term: {}",
+            criterion.perceptual.describe()
+        )));
+    }
+    if let Some(a) = &cfg.adversarial {
+        observer(Event::Message(&format!(
+            "adversarial: {} x L_G ({:?}) + {} x L1 to the uncorrected render; a {}-layer PatchGAN of width {} \
+             on renders and real photos pooled by {}",
+            a.weight,
+            a.loss,
+            a.content,
+            a.discriminator.layers,
+            a.discriminator.width,
+            a.downsample
+        )));
+    }
     let source = Arc::new(BatchSpec {
         pairs: Arc::new(pairs),
         seed: cfg.run.seed,

@@ -12,5 +12,6 @@ mod golden;
 mod haze;
 mod labels;
 mod methods;
+mod realism_training;
 mod serve;
 mod strength;
