@@ -1,7 +1,7 @@
 //! Training the anchored variant's correction for realism: the MHB-Unet with the reference's
 //! light field, as in the paper, but judged by a discriminator against real underwater photos
-//! instead of by a paired target it could copy (issue text of `config.adversarial`,
-//! [`AdversarialConfig`]).
+//! instead of by a paired target it could copy (`config.adversarial`, [`AdversarialConfig`];
+//! what it measured: `docs/RESULTS.md`, "The correction trained for realism").
 //!
 //! The data are pairs whose underwater side is a real photo: with a paired set they are the
 //! real pairs; with `tools/realism_pairs.py`, clean photos beside references of other scenes.
