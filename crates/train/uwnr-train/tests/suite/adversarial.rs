@@ -3,7 +3,6 @@
 //! own terms, and resumes exactly.
 
 use std::path::Path;
-use std::sync::atomic::{AtomicBool, Ordering};
 
 use uwnr_core::Image;
 use uwnr_core::io::save_rgb;
@@ -11,9 +10,9 @@ use uwnr_model::{Correction, GeneratorConfig, read_weights};
 use uwnr_run::RunSettings;
 use uwnr_run::checkpoint::{CHECKPOINTS_DIR, LAST};
 use uwnr_train::config::LossWeights;
-use uwnr_train::{
-    AdversarialConfig, Device, Event, GENERATOR_FILE, TrainConfig, TrainOptions, train,
-};
+use uwnr_train::{AdversarialConfig, Device, GENERATOR_FILE, TrainConfig, TrainOptions};
+
+use crate::training::run;
 
 /// Clean photos beside "real" photos of other scenes (green and hazy stripes).
 fn make_dir(root: &Path, n: usize, side: usize) {
@@ -68,22 +67,6 @@ fn config(epochs: usize) -> TrainConfig {
         },
         ..TrainConfig::default()
     }
-}
-
-fn run(
-    cfg: &TrainConfig,
-    opts: &TrainOptions,
-    stop_after: Option<usize>,
-) -> uwnr_train::TrainSummary {
-    let stop = AtomicBool::new(false);
-    train(cfg, opts, &stop, &mut |e| {
-        if let (Event::Step { step, .. }, Some(n)) = (e, stop_after)
-            && step >= n
-        {
-            stop.store(true, Ordering::Relaxed);
-        }
-    })
-    .unwrap()
 }
 
 fn generator_weights(run: &Path) -> std::collections::BTreeMap<String, Vec<f32>> {

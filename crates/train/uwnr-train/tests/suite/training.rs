@@ -69,7 +69,8 @@ fn tiny_config(epochs: usize) -> TrainConfig {
     }
 }
 
-fn run(
+/// Trains with `cfg`, stopping after `stop_after` steps when given.
+pub(crate) fn run(
     cfg: &TrainConfig,
     opts: &TrainOptions,
     stop_after: Option<usize>,
