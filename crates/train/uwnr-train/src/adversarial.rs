@@ -21,24 +21,19 @@
 //! `pool` is an average over `downsample x downsample` blocks. `metrics.csv` holds `d_loss,
 //! adversarial, content, paired, total`, the total being the generator's objective.
 
-use std::path::Path;
-
 use burn::module::Module;
 use burn::optim::{GradientsParams, ModuleOptimizer};
 use burn::tensor::module::adaptive_avg_pool2d;
 use burn::tensor::{Device, Tensor, TensorData};
 use uwnr_gan_train::Discriminator;
-use uwnr_run::checkpoint::RunState;
-use uwnr_run::{Scores, Task};
 
 use crate::augment::{TARGET_CHANNELS, WATER_VALUES};
 use crate::burn_style::finish_tensor;
 use crate::config::AdversarialConfig;
 use crate::error::{Result, TrainError};
 use crate::generator::Generator;
-use crate::loader::{Batch, BatchSpec};
+use crate::loader::Batch;
 use crate::losses::{Criterion, l1};
-use crate::trainer::UwnrTask;
 
 /// `metrics.csv` columns of an adversarial run and their legend names.
 pub const ADVERSARIAL_TERMS: [(&str, &str); 5] = [
@@ -170,86 +165,4 @@ pub fn adversarial_step(
         scalar(total.detach())?,
     ];
     Ok((model, values))
-}
-
-/// An adversarial run: UWNR's task (data, validation, export) with the critic's step.
-pub(crate) struct AdversarialTask<'a> {
-    pub(crate) base: UwnrTask<'a>,
-    pub(crate) adv: AdversarialConfig,
-}
-
-impl Task for AdversarialTask<'_> {
-    type Model = Critic;
-    type Error = TrainError;
-    type Source = BatchSpec;
-
-    fn loss_terms(&self) -> Vec<(String, String)> {
-        ADVERSARIAL_TERMS
-            .iter()
-            .map(|(c, l)| ((*c).to_string(), (*l).to_string()))
-            .collect()
-    }
-
-    fn device(&self) -> &Device {
-        self.base.device()
-    }
-
-    fn build(&self) -> Result<Critic> {
-        let discriminator = self
-            .adv
-            .discriminator
-            .init(self.base.device())
-            .map_err(|e| TrainError::InvalidConfig {
-                field: "adversarial.discriminator",
-                reason: e.to_string(),
-            })?;
-        Ok(Critic {
-            generator: self.base.build()?,
-            discriminator,
-        })
-    }
-
-    fn optimizer(&self) -> ModuleOptimizer {
-        self.base.optimizer()
-    }
-
-    fn lr(&self, step: usize, epoch: usize) -> f64 {
-        self.base.lr(step, epoch)
-    }
-
-    fn step(
-        &self,
-        model: Critic,
-        optim: &mut ModuleOptimizer,
-        batch: Batch,
-        _step: usize,
-        lr: f64,
-    ) -> Result<(Critic, Vec<f64>)> {
-        let (model, values) = adversarial_step(
-            model,
-            optim,
-            &self.base.criterion,
-            &self.adv,
-            &batch,
-            lr,
-            self.base.device(),
-        )?;
-        Ok((model, values.to_vec()))
-    }
-
-    fn has_validation(&self) -> bool {
-        self.base.has_validation()
-    }
-
-    fn validate(&self, model: &Critic, sheet_rows: usize) -> Result<Scores> {
-        self.base.validate(&model.generator, sheet_rows)
-    }
-
-    fn sheet_columns(&self) -> Vec<String> {
-        self.base.sheet_columns()
-    }
-
-    fn export(&self, model: &Critic, dir: &Path, state: &RunState) -> Result<()> {
-        self.base.export(&model.generator, dir, state)
-    }
 }

@@ -21,12 +21,12 @@ use uwnr_run::checkpoint::RunState;
 use uwnr_run::folder::{check_run_folder, check_saved_config};
 use uwnr_run::{Event, Prepared, Schedule, Scores, Task};
 
-use crate::adversarial::AdversarialTask;
+use crate::adversarial::{ADVERSARIAL_TERMS, Critic, adversarial_step};
 use crate::augment::{TARGET_CHANNELS, WATER_VALUES};
 use crate::burn_render::{RenderOn, network_from_generator};
 use crate::burn_style::finish_tensor;
 use crate::burn_weights::save_generator;
-use crate::config::TrainConfig;
+use crate::config::{AdversarialConfig, TrainConfig};
 use crate::data::{LoadOptions, TrainData, ValPair, load_data};
 use crate::error::{Result, TrainError};
 use crate::generator::{Generator, GeneratorInit};
@@ -231,11 +231,11 @@ fn reference_style(cfg: &TrainConfig, v: &ValPair) -> Result<ReferenceStyle> {
 }
 
 /// UWNR's part of a run.
-pub(crate) struct UwnrTask<'a> {
+struct UwnrTask<'a> {
     cfg: &'a TrainConfig,
     /// The autodiff training device.
     device: Device,
-    pub(crate) criterion: Criterion,
+    criterion: Criterion,
     val: Vec<ValPair>,
     val_styles: Vec<ReferenceStyle>,
     steps_per_epoch: usize,
@@ -322,6 +322,88 @@ impl Task for UwnrTask<'_> {
             &meta,
         )?;
         Ok(())
+    }
+}
+
+/// An adversarial run: UWNR's task (data, validation, export) with the critic's step.
+struct AdversarialTask<'a> {
+    base: UwnrTask<'a>,
+    adv: AdversarialConfig,
+}
+
+impl Task for AdversarialTask<'_> {
+    type Model = Critic;
+    type Error = TrainError;
+    type Source = BatchSpec;
+
+    fn loss_terms(&self) -> Vec<(String, String)> {
+        ADVERSARIAL_TERMS
+            .iter()
+            .map(|(c, l)| ((*c).to_string(), (*l).to_string()))
+            .collect()
+    }
+
+    fn device(&self) -> &Device {
+        self.base.device()
+    }
+
+    fn build(&self) -> Result<Critic> {
+        let discriminator = self
+            .adv
+            .discriminator
+            .init(self.base.device())
+            .map_err(|e| TrainError::InvalidConfig {
+                field: "adversarial.discriminator",
+                reason: e.to_string(),
+            })?;
+        Ok(Critic {
+            generator: self.base.build()?,
+            discriminator,
+        })
+    }
+
+    fn optimizer(&self) -> ModuleOptimizer {
+        self.base.optimizer()
+    }
+
+    fn lr(&self, step: usize, epoch: usize) -> f64 {
+        self.base.lr(step, epoch)
+    }
+
+    fn step(
+        &self,
+        model: Critic,
+        optim: &mut ModuleOptimizer,
+        batch: Batch,
+        _step: usize,
+        lr: f64,
+    ) -> Result<(Critic, Vec<f64>)> {
+        let (model, values) = adversarial_step(
+            model,
+            optim,
+            &self.base.criterion,
+            &self.adv,
+            &batch,
+            lr,
+            self.base.device(),
+        )?;
+        Ok((model, values.to_vec()))
+    }
+
+    fn has_validation(&self) -> bool {
+        self.base.has_validation()
+    }
+
+    fn validate(&self, model: &Critic, sheet_rows: usize) -> Result<Scores> {
+        self.base.validate(&model.generator, sheet_rows)
+    }
+
+    fn sheet_columns(&self) -> Vec<String> {
+        self.base.sheet_columns()
+    }
+
+    fn export(&self, model: &Critic, dir: &Path, state: &RunState) -> Result<()> {
+        self.base.export(&model.generator, dir, state)
     }
 }
 
