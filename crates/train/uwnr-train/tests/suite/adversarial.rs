@@ -145,10 +145,15 @@ fn a_step_updates_both_networks() {
     let cfg = config(1);
     let adv = cfg.adversarial.unwrap();
     let device = Device::flex().autodiff();
-    let critic = uwnr_train::Critic {
-        generator: cfg.model.init(&device).unwrap(),
-        discriminator: adv.discriminator.init(&device).unwrap(),
-    };
+    // Built under the loop's seeding lock: the tests of this binary run in parallel, and a
+    // network drawn from burn's generator meanwhile would change another run's initial weights.
+    let critic = uwnr_train::init_seeded(1, &device, || {
+        Ok::<_, String>(uwnr_train::Critic {
+            generator: cfg.model.init(&device).map_err(|e| e.to_string())?,
+            discriminator: adv.discriminator.init(&device).map_err(|e| e.to_string())?,
+        })
+    })
+    .unwrap();
     let before = critic.clone();
     let (b, c) = (2, 32);
     let n = c * c;

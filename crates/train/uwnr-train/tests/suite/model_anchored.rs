@@ -68,15 +68,19 @@ fn the_output_stage_in_burn_matches_the_plain_one() {
 
 /// An anchored network at width 8 whose last convolution is random (a fresh one outputs 0).
 fn perturbed(device: &Device) -> (uwnr_train::Generator, GeneratorConfig) {
-    device.seed(5);
     let config = GeneratorConfig::anchored(8);
-    let mut g = config.init(device).unwrap();
-    let [o, i, k, _] = g.out.weight.dims();
-    g.out.weight = Param::from_tensor(Tensor::random(
-        [o, i, k, k],
-        Distribution::Normal(0.0, 0.05),
-        device,
-    ));
+    // Seeded under the loop's lock, so that a run of a parallel test is not reseeded midway.
+    let g = uwnr_train::init_seeded(5, device, || {
+        let mut g = config.init(device)?;
+        let [o, i, k, _] = g.out.weight.dims();
+        g.out.weight = Param::from_tensor(Tensor::random(
+            [o, i, k, k],
+            Distribution::Normal(0.0, 0.05),
+            device,
+        ));
+        Ok::<_, uwnr_train::TrainError>(g)
+    })
+    .unwrap();
     (g, config)
 }
 
@@ -116,9 +120,9 @@ fn the_engine_matches_burn_for_the_anchored_variant() {
 #[test]
 fn a_fresh_anchored_model_is_the_colour_transfer_at_the_reference_depth() {
     let device = Device::flex();
-    device.seed(3);
     let config = GeneratorConfig::anchored(8);
-    let g = config.init(&device).unwrap();
+    // Seeded under the loop's lock, so that this draw never lands inside a parallel run's.
+    let g = uwnr_train::init_seeded(3, &device, || config.init(&device)).unwrap();
     let net = network_from_generator(&g, &config, &RenderOn::Engine(Backend::Engine)).unwrap();
     let reference = reference(64, 48);
     let style = ReferenceStyle::new(&reference, &config).unwrap();
@@ -329,12 +333,12 @@ fn detail_retention_is_a_config_choice_that_old_files_do_not_make() {
 #[test]
 fn a_fresh_detail_retaining_model_renders_its_anchor() {
     let device = Device::flex();
-    device.seed(3);
     let config = GeneratorConfig {
         detail_retention: true,
         ..GeneratorConfig::anchored(8)
     };
-    let g = config.init(&device).unwrap();
+    // Seeded under the loop's lock, so that this draw never lands inside a parallel run's.
+    let g = uwnr_train::init_seeded(3, &device, || config.init(&device)).unwrap();
     let net = network_from_generator(&g, &config, &RenderOn::Engine(Backend::Engine)).unwrap();
     let reference = ramp_and_grain(64, 48, [0.2, 0.02, 0.02]);
     let style = ReferenceStyle::new(&reference, &config).unwrap();
