@@ -104,16 +104,6 @@ fn pool(x: Tensor<4>, k: usize) -> Tensor<4> {
     adaptive_avg_pool2d(x, [h / k, w / k])
 }
 
-/// Reads back a `[1]` tensor.
-fn scalar(t: Tensor<1>) -> Result<f64> {
-    let v = t.into_data().try_to_vec::<f32>().map_err(|e| {
-        TrainError::Model(uwnr_model::ModelError::Backend(format!(
-            "reading a loss value: {e:?}"
-        )))
-    })?;
-    Ok(v.first().copied().map_or(f64::NAN, f64::from))
-}
-
 /// One adversarial step (module doc): a discriminator update, then a generator update.
 /// Returns the module and `[d_loss, adversarial, content, paired, total]`.
 pub fn adversarial_step(
@@ -157,12 +147,24 @@ pub fn adversarial_step(
     let mut grads = total.backward();
     let g_grads = GradientsParams::from_module(&mut grads, &model.generator);
     let model = optim.step(lr, model, g_grads);
-    let values = [
-        scalar(d_loss.detach())?,
-        scalar(g_adv.detach())?,
-        scalar(content.detach())?,
-        scalar(paired.detach())?,
-        scalar(total.detach())?,
-    ];
-    Ok((model, values))
+    // One read back of the five terms, in the columns' order.
+    let v = Tensor::cat(
+        vec![
+            d_loss.detach(),
+            g_adv.detach(),
+            content.detach(),
+            paired.detach(),
+            total.detach(),
+        ],
+        0,
+    )
+    .into_data()
+    .try_to_vec::<f32>()
+    .map_err(|e| {
+        TrainError::Model(uwnr_model::ModelError::Backend(format!(
+            "reading the loss values: {e:?}"
+        )))
+    })?;
+    let g = |i: usize| v.get(i).copied().map_or(f64::NAN, f64::from);
+    Ok((model, [g(0), g(1), g(2), g(3), g(4)]))
 }

@@ -247,10 +247,7 @@ impl Task for UwnrTask<'_> {
     type Source = BatchSpec;
 
     fn loss_terms(&self) -> Vec<(String, String)> {
-        LOSS_TERMS
-            .iter()
-            .map(|(c, l)| ((*c).to_string(), (*l).to_string()))
-            .collect()
+        owned_terms(&LOSS_TERMS)
     }
 
     fn device(&self) -> &Device {
@@ -337,10 +334,7 @@ impl Task for AdversarialTask<'_> {
     type Source = BatchSpec;
 
     fn loss_terms(&self) -> Vec<(String, String)> {
-        ADVERSARIAL_TERMS
-            .iter()
-            .map(|(c, l)| ((*c).to_string(), (*l).to_string()))
-            .collect()
+        owned_terms(&ADVERSARIAL_TERMS)
     }
 
     fn device(&self) -> &Device {
@@ -405,6 +399,14 @@ impl Task for AdversarialTask<'_> {
     fn export(&self, model: &Critic, dir: &Path, state: &RunState) -> Result<()> {
         self.base.export(&model.generator, dir, state)
     }
+}
+
+/// `(csv column, legend name)` pairs as the loop takes them.
+fn owned_terms(terms: &[(&str, &str)]) -> Vec<(String, String)> {
+    terms
+        .iter()
+        .map(|(c, l)| ((*c).to_string(), (*l).to_string()))
+        .collect()
 }
 
 /// One optimisation step: forward, loss, backward, AdamW update at `lr`.
