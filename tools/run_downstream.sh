@@ -33,6 +33,9 @@ TARGET=${TARGET-}
 # WEIGHTS renders the uwnr set with another UWNR model than the bundled one (e.g. the v4 rows of
 # docs/RESULTS.md: WEIGHTS=FILE with v4's file from the commit that bundled it).
 WEIGHTS=${WEIGHTS-}
+# METHOD_CONFIG renders the uwnr set with a method spec (`--method-config`), e.g. another model's
+# effects with an earlier build (docs/results/model-v7-downstream.md).
+METHOD_CONFIG=${METHOD_CONFIG-}
 SPLITS=${SPLITS:-../uwnr-splits}
 [ -d "$SPLITS/lsui-test" ] || bash tools/lsui_split.sh "$SPLITS" >/dev/null
 export LIBTORCH_USE_PYTORCH=1
@@ -46,6 +49,6 @@ exec "$BIN" experiment downstream \
   --references "$DATA/references" \
   --test "$DATA/paired/uieb-val" "$DATA/paired/lsui" "$SPLITS/lsui-test" \
   ${REAL:+--real "$REAL"} ${TARGET:+--target "$TARGET"} \
-  ${WEIGHTS:+--weights "$WEIGHTS"} \
+  ${WEIGHTS:+--weights "$WEIGHTS"} ${METHOD_CONFIG:+--method-config "$METHOD_CONFIG"} \
   ${METHODS:+--methods "$METHODS"} --per-image 4 --size 256x256 \
   --budget 6000 --seed "$SEED" --device "$DEVICE" --out "$OUT"

@@ -85,6 +85,8 @@ pub struct DownstreamSpec {
     /// The strengths a water-anchored model's pairs are calibrated to (`uwnr dataset
     /// --target`); the other methods' sets are made without it.
     pub target: Option<uwnr_dataset::WaterTarget>,
+    /// The camera stage every method's renders go through (`uwnr dataset --camera`).
+    pub camera: uwnr_render::Camera,
 }
 
 /// Progress, reported on the calling thread.
@@ -484,7 +486,7 @@ pub fn run_downstream(
         depth_policy: spec.depth_policy,
         labels: uwnr_dataset::LabelInputs::default(),
         target: None,
-        camera: uwnr_render::Camera::default(),
+        camera: spec.camera,
     };
     let real_names: Vec<String> = short_names(&spec.real)
         .into_iter()

@@ -325,6 +325,6 @@ pub struct EvalArgs {
     pub csv: Option<PathBuf>,
 }
 
-fn parse_camera(text: &str) -> Result<uwnr_render::Camera, String> {
+pub(crate) fn parse_camera(text: &str) -> Result<uwnr_render::Camera, String> {
     uwnr_render::Camera::parse(text).map_err(|e| e.to_string())
 }

@@ -113,6 +113,10 @@ pub struct DownstreamArgs {
     /// sets are made as without it. Default: the bundled model's real pairs.
     #[arg(long, value_name = "DIR")]
     pub target: Option<PathBuf>,
+    /// The camera stage every method's renders go through (as `uwnr dataset --camera`):
+    /// `typical`, `none`, or a JSON object of blur, read_noise, shot_noise and jpeg_quality.
+    #[arg(long, value_name = "none|typical|JSON", default_value = "typical", value_parser = super::render::parse_camera)]
+    pub camera: uwnr_render::Camera,
     #[command(flatten)]
     pub baseline: BaselineOpts,
     #[command(flatten)]

@@ -102,6 +102,7 @@ fn downstream(a: &DownstreamArgs) -> Result<ExitCode> {
             .as_deref()
             .map(|dir| uwnr_dataset::WaterTarget::load(dir, &DecodeLimits::default()))
             .transpose()?,
+        camera: a.camera,
     };
 
     let stop = super::stop_on_ctrl_c(

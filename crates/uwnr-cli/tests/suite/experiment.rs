@@ -259,4 +259,67 @@ fn a_target_calibrates_the_water_anchored_set_only() {
     assert_eq!(uwnr_set["target"]["pairs"], 2, "{uwnr_set}");
     let reinhard_set = settings("reinhard");
     assert!(reinhard_set["target"].is_null(), "{reinhard_set}");
+    // Without --camera every set goes through the typical camera, as `uwnr dataset`'s do.
+    for set in [&uwnr_set, &reinhard_set] {
+        assert_eq!(set["camera"]["jpeg_quality"], 70, "{set}");
+    }
+}
+
+#[test]
+fn the_camera_is_chosen_for_every_training_set() {
+    let dir = tempfile::tempdir().unwrap();
+    let clean = clean_images(dir.path(), 2);
+    let test = paired(&dir.path().join("test"), 2, 30);
+    let config = tiny_enhancer(dir.path());
+    let out = dir.path().join("out");
+    let r1 = sample("ref-blue.jpg");
+    let o = uwnr(&[
+        "experiment",
+        "downstream",
+        "--clean",
+        s(&clean),
+        "--references",
+        s(&r1),
+        "--test",
+        s(&test),
+        "--out",
+        s(&out),
+        "--methods",
+        "uwnr,reinhard",
+        "--per-image",
+        "1",
+        "--size",
+        "32x32",
+        "--budget",
+        "2",
+        "--enhance-config",
+        s(&config),
+        "--camera",
+        "none",
+        "--jobs",
+        "2",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    for m in ["uwnr", "reinhard"] {
+        let text = std::fs::read_to_string(out.join("data").join(m).join("dataset.json")).unwrap();
+        let set: serde_json::Value = serde_json::from_str(&text).unwrap();
+        // dataset.json records a camera only when one ran.
+        assert!(set["camera"].is_null(), "{m}: {set}");
+    }
+    let bad = uwnr(&[
+        "experiment",
+        "downstream",
+        "--clean",
+        s(&clean),
+        "--test",
+        s(&test),
+        "--out",
+        s(&dir.path().join("out-bad")),
+        "--methods",
+        "jerlov",
+        "--camera",
+        "{\"jpeg_quality\": 101}",
+    ]);
+    assert!(!bad.status.success());
+    assert!(stderr(&bad).contains("jpeg_quality"), "{}", stderr(&bad));
 }

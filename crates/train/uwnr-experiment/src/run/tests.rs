@@ -21,6 +21,7 @@ fn spec(budget: usize) -> DownstreamSpec {
         vgg19: None,
         limits: DecodeLimits::default(),
         target: None,
+        camera: uwnr_render::Camera::default(),
     }
 }
 
