@@ -69,6 +69,10 @@ pub enum LightFieldMap {
     /// The fixed range of the luminance of any 8-bit image, `[1/3, (1 + 3 log10 255) / 3]`, so a
     /// darker or lower-contrast reference gives a darker or flatter map. Otherwise identical.
     Absolute,
+    /// The absolute map's mean over the frame, channel by channel: the reference's overall
+    /// brightness at each scale, none of its layout (a network fed it cannot paint the
+    /// reference's dark and bright regions over a photo).
+    Global,
 }
 
 impl LightFieldMap {
@@ -78,6 +82,7 @@ impl LightFieldMap {
         match self {
             Self::Paper => "paper",
             Self::Absolute => "absolute",
+            Self::Global => "global",
         }
     }
 }
@@ -89,8 +94,9 @@ impl std::str::FromStr for LightFieldMap {
         match s {
             "paper" => Ok(Self::Paper),
             "absolute" => Ok(Self::Absolute),
+            "global" => Ok(Self::Global),
             other => Err(format!(
-                "unknown light-field map '{other}' (expected paper or absolute)"
+                "unknown light-field map '{other}' (expected paper, absolute or global)"
             )),
         }
     }
@@ -161,16 +167,38 @@ pub fn light_field_raw_u8_with(img: &U8Image, map: LightFieldMap) -> Result<U8Im
                 (lo.min(v), hi.max(v))
             }),
         // Every blur of an all-0 image is 0 (log clipped to 0); of an all-255 image, 255.
-        LightFieldMap::Absolute => (1.0 / count, (1.0 + count * table[255]) / count),
+        LightFieldMap::Absolute | LightFieldMap::Global => {
+            (1.0 / count, (1.0 + count * table[255]) / count)
+        }
     };
     let denom = max - min + LF_NORM_EPS;
     // `np.uint8(L * 255)` truncates; L is in [0, 1).
-    let normalised: Vec<u8> = luminance
+    let mut normalised: Vec<u8> = luminance
         .iter()
         .map(|&l| ((l - min) / denom * 255.0) as u8)
         .collect();
+    if map == LightFieldMap::Global {
+        flatten_channels(&mut normalised, small.channels);
+    }
     let small = U8Image::new(small.width, small.height, small.channels, normalised)?;
     cv_resize_linear_u8(&small, img.width, img.height)
+}
+
+/// Sets every value of each channel of the interleaved `data` to that channel's mean (rounded).
+fn flatten_channels(data: &mut [u8], channels: usize) {
+    let pixels = data.len() / channels;
+    for c in 0..channels {
+        let sum: u64 = data
+            .iter()
+            .skip(c)
+            .step_by(channels)
+            .map(|&v| u64::from(v))
+            .sum();
+        let mean = ((sum as f64 / pixels.max(1) as f64).round()) as u8;
+        for v in data.iter_mut().skip(c).step_by(channels) {
+            *v = mean;
+        }
+    }
 }
 
 /// The render-time map on an 8-bit RGB reference: PIL bilinear resize to 256x256, then the
@@ -266,6 +294,49 @@ mod tests {
         assert_eq!((lf.width, lf.height), (256, 256));
         assert_eq!(*lf.data.iter().min().unwrap(), 0);
         assert!(*lf.data.iter().max().unwrap() >= 250);
+    }
+
+    #[test]
+    fn the_global_map_keeps_brightness_and_drops_layout() {
+        // A bright left half and its mirror: the absolute maps differ, the global ones do not,
+        // and each global channel is the absolute map's mean.
+        let image = |bright_left: bool| {
+            let mut data = Vec::new();
+            for _y in 0..256 {
+                for x in 0..256 {
+                    let v = if (x < 128) == bright_left { 220 } else { 30 };
+                    data.extend_from_slice(&[v, v / 2, v / 3]);
+                }
+            }
+            U8Image::new(256, 256, 3, data).unwrap()
+        };
+        let (left, right) = (image(true), image(false));
+        let abs = |im| light_field_raw_u8_with(im, LightFieldMap::Absolute).unwrap();
+        let global = |im| light_field_raw_u8_with(im, LightFieldMap::Global).unwrap();
+        assert_ne!(abs(&left).data, abs(&right).data);
+        let (gl, gr) = (global(&left), global(&right));
+        assert_eq!((gl.width, gl.height), (256, 256));
+        for c in 0..3 {
+            let channel =
+                |im: &U8Image| -> Vec<u8> { im.data.iter().skip(c).step_by(3).copied().collect() };
+            let (l, r) = (channel(&gl), channel(&gr));
+            assert!(l.iter().all(|&v| v == l[0]) && r.iter().all(|&v| v == r[0]));
+            // Equal up to the resize's rounding at the halves' border; the absolute maps differ
+            // by 31 at the left edge.
+            assert!(l[0].abs_diff(r[0]) <= 4, "{} {}", l[0], r[0]);
+            let (al, ar) = (channel(&abs(&left))[0], channel(&abs(&right))[0]);
+            assert!(al.abs_diff(ar) >= 20, "{al} {ar}");
+            let a = channel(&abs(&left));
+            let mean = a.iter().map(|&v| f64::from(v)).sum::<f64>() / a.len() as f64;
+            assert!((f64::from(l[0]) - mean).abs() <= 2.0, "{} {mean}", l[0]);
+        }
+        // A darker reference gives a darker global map.
+        let dark = U8Image::new(256, 256, 3, vec![20; 256 * 256 * 3]).unwrap();
+        assert!(global(&dark).data[0] < gl.data[0]);
+        assert_eq!(
+            "global".parse::<LightFieldMap>().unwrap(),
+            LightFieldMap::Global
+        );
     }
 
     #[test]

@@ -200,11 +200,13 @@ impl GeneratorConfig {
                     });
                 }
             }
-            if self.light_field != LightFieldMap::Absolute {
+            let global_ok =
+                self.light_field == LightFieldMap::Global && self.anchor != AnchorKind::Reinhard;
+            if self.light_field != LightFieldMap::Absolute && !global_ok {
                 return Err(ModelError::InvalidConfig {
                     field: "light_field",
                     value: 0,
-                    reason: "the anchored variant reads the absolute map (its light-field retention compares absolute maps)".into(),
+                    reason: "the anchored variant reads the absolute map (its light-field retention compares absolute maps), or with the water anchor the global one".into(),
                 });
             }
         }
@@ -390,5 +392,23 @@ mod tests {
             )
             .is_err()
         );
+    }
+
+    #[test]
+    fn the_global_map_needs_the_water_anchor() {
+        // The Reinhard anchor's light-field retention compares absolute maps; the water anchor
+        // reads the map only through the network, which may be fed the global one.
+        let water = GeneratorConfig {
+            light_field: LightFieldMap::Global,
+            anchor: AnchorKind::Water,
+            ..GeneratorConfig::anchored(8)
+        };
+        water.validate().unwrap();
+        let reinhard = GeneratorConfig {
+            anchor: AnchorKind::Reinhard,
+            ..water
+        };
+        let e = reinhard.validate().unwrap_err().to_string();
+        assert!(e.contains("light_field"), "{e}");
     }
 }
