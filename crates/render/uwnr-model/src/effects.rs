@@ -123,7 +123,27 @@ impl WaterEffects {
     /// Applies the stages to `img` (RGB in [0, 1]) over `depth` (1 plane, its size, larger is
     /// farther) in a water whose veil is `veil`; `seed` draws the particles and the medium.
     pub fn apply(&self, img: &mut Image, depth: &Image, veil: [f32; 3], seed: u64) -> Result<()> {
+        let unit = img.width().min(img.height()) as f32 / UNIT_SIDE;
+        self.apply_at_scale(img, depth, veil, seed, unit)
+    }
+
+    /// [`Self::apply`] on a crop of a larger frame: spots and point spreads sized for a frame
+    /// of `unit` x 256 px (`apply` takes the image's own shorter side), particles as many per
+    /// pixel as in the frame.
+    pub fn apply_at_scale(
+        &self,
+        img: &mut Image,
+        depth: &Image,
+        veil: [f32; 3],
+        seed: u64,
+        unit: f32,
+    ) -> Result<()> {
         self.validate()?;
+        if !(unit.is_finite() && unit > 0.0) {
+            return Err(ModelError::InvalidOptions(format!(
+                "effects scale {unit} must be finite and > 0"
+            )));
+        }
         if self.is_none() {
             return Ok(());
         }
@@ -140,7 +160,6 @@ impl WaterEffects {
                 depth.channels()
             )));
         }
-        let unit = w.min(h) as f32 / UNIT_SIDE;
         let d = relative(depth.plane(0));
         let mut rng = ChaCha8Rng::seed_from_u64(seed ^ EFFECTS_STREAM);
         if self.absorb > 0.0 {
@@ -367,6 +386,26 @@ mod tests {
             .collect();
         let m = vals.iter().sum::<f32>() / vals.len() as f32;
         (vals.iter().map(|v| (v - m) * (v - m)).sum::<f32>() / vals.len() as f32).sqrt()
+    }
+
+    #[test]
+    fn a_crop_takes_its_frames_scale() {
+        // `apply` is `apply_at_scale` at the image's own side / 256; a larger frame's scale
+        // spreads the far parts more.
+        let (w, h) = (64, 64);
+        let fx = WaterEffects::DEFAULT;
+        let (mut own, mut same, mut framed) = (stripes(w, h), stripes(w, h), stripes(w, h));
+        fx.apply(&mut own, &ramp(w, h), [0.1, 0.5, 0.4], 3).unwrap();
+        fx.apply_at_scale(&mut same, &ramp(w, h), [0.1, 0.5, 0.4], 3, 0.25)
+            .unwrap();
+        fx.apply_at_scale(&mut framed, &ramp(w, h), [0.1, 0.5, 0.4], 3, 1.0)
+            .unwrap();
+        assert_eq!(own.data(), same.data());
+        assert!(contrast(&framed, 48, 64) < contrast(&own, 48, 64));
+        assert!(
+            fx.apply_at_scale(&mut framed, &ramp(w, h), [0.1, 0.5, 0.4], 3, f32::NAN)
+                .is_err()
+        );
     }
 
     #[test]

@@ -128,7 +128,19 @@ impl Camera {
     /// `img` (RGB in [0, 1]) through the camera, with noise drawn from `seed`; the output is on
     /// 8-bit levels.
     pub fn apply(&self, img: &Image, seed: u64) -> Result<Image> {
+        let unit = img.width().min(img.height()) as f32 / UNIT_SIDE;
+        self.apply_at_scale(img, seed, unit)
+    }
+
+    /// [`Self::apply`] on a crop of a larger frame: the lens blur sized for a frame of `unit` x
+    /// 256 px (`apply` takes the image's own shorter side).
+    pub fn apply_at_scale(&self, img: &Image, seed: u64, unit: f32) -> Result<Image> {
         self.validate()?;
+        if !(unit.is_finite() && unit > 0.0) {
+            return Err(RenderError::Invalid(format!(
+                "camera scale {unit} must be finite and > 0"
+            )));
+        }
         if img.channels() != 3 {
             return Err(RenderError::Invalid(format!(
                 "the camera stage takes RGB images, got {} channel(s)",
@@ -138,7 +150,7 @@ impl Camera {
         let (w, h) = img.size();
         let mut out = img.clone();
         if self.blur > 0.0 {
-            let sigma = f64::from(self.blur * w.min(h) as f32 / UNIT_SIDE);
+            let sigma = f64::from(self.blur * unit);
             for c in 0..3 {
                 uwnr_model::blur::blur_plane(out.plane_mut(c), w, h, sigma);
             }
@@ -197,6 +209,37 @@ mod tests {
             }
         }
         img
+    }
+
+    #[test]
+    fn a_crop_is_blurred_as_its_frame_is() {
+        // `apply` sizes the lens blur by the image's own side; a 64 px crop of a 256 px frame
+        // is blurred by the frame's sigma with `apply_at_scale(.., 1.0)`, 4x the crop's own.
+        let cam = Camera {
+            jpeg_quality: 0,
+            read_noise: 0.0,
+            shot_noise: 0.0,
+            ..Camera::TYPICAL
+        };
+        let mut img = Image::filled(64, 64, 3, 0.2);
+        for c in 0..3 {
+            for (i, v) in img.plane_mut(c).iter_mut().enumerate() {
+                if i % 64 >= 32 {
+                    *v = 0.8;
+                }
+            }
+        }
+        let own = cam.apply(&img, 1).unwrap();
+        assert_eq!(
+            own.data(),
+            cam.apply_at_scale(&img, 1, 0.25).unwrap().data()
+        );
+        let framed = cam.apply_at_scale(&img, 1, 1.0).unwrap();
+        // The first bright pixel: nearly the bright side under the crop's own 0.2 px sigma,
+        // pulled towards the edge's middle under the frame's 0.8 px.
+        let (a, b) = (own.plane(0)[32], framed.plane(0)[32]);
+        assert!(a > 0.78 && b < 0.7, "{a} {b}");
+        assert!(cam.apply_at_scale(&img, 1, 0.0).is_err());
     }
 
     #[test]

@@ -18,6 +18,10 @@
 //! 3. `g = weight · L_G(D(pool(out))) + content · L1(out, plain) + paired terms`, with the
 //!    updated discriminator, gradients of the generator only, an update.
 //!
+//! With `stages` ([`RenderStages`]), the discriminator sees `out` (in step 2 and 3) through the
+//! water's effects and the camera a dataset's render goes through, straight-through:
+//! `seen = out + detach(stages(out) - out)`, so the generator's gradient passes them unchanged.
+//!
 //! `pool` is an average over `downsample x downsample` blocks. `metrics.csv` holds `d_loss,
 //! adversarial, content, paired, total`, the total being the generator's objective.
 
@@ -29,7 +33,7 @@ use uwnr_gan_train::Discriminator;
 
 use crate::augment::{TARGET_CHANNELS, WATER_VALUES};
 use crate::burn_style::finish_tensor;
-use crate::config::AdversarialConfig;
+use crate::config::{AdversarialConfig, RenderStages};
 use crate::error::{Result, TrainError};
 use crate::generator::Generator;
 use crate::loader::Batch;
@@ -104,7 +108,63 @@ fn pool(x: Tensor<4>, k: usize) -> Tensor<4> {
     adaptive_avg_pool2d(x, [h / k, w / k])
 }
 
-/// One adversarial step (module doc): a discriminator update, then a generator update.
+/// `out` ([b, 3, c, c]) through `stages`, straight-through (module doc): the values are the
+/// stages' output, the gradient is the identity. Sample `i` draws its particles and noise from
+/// `mix(seed + i)`; its depth and veil are the batch's.
+pub fn through_stages(
+    out: Tensor<4>,
+    batch: &Batch,
+    stages: &RenderStages,
+    seed: u64,
+    device: &Device,
+) -> Result<Tensor<4>> {
+    let [b, ch, h, w] = out.dims();
+    let n = h * w;
+    let failed = |what: &str, e: String| {
+        TrainError::Model(uwnr_model::ModelError::Backend(format!(
+            "the render stages ({what}): {e}"
+        )))
+    };
+    let values = out
+        .clone()
+        .detach()
+        .into_data()
+        .try_to_vec::<f32>()
+        .map_err(|e| failed("reading the renders", format!("{e:?}")))?;
+    if ch != 3 || batch.depth.len() != b * n || batch.water.len() != b * WATER_VALUES {
+        return Err(failed(
+            "shapes",
+            format!("renders {b}x{ch}x{h}x{w} against the batch's depth and water"),
+        ));
+    }
+    let unit = stages.frame as f32 / 256.0;
+    let mut seen = Vec::with_capacity(values.len());
+    for i in 0..b {
+        let s = uwnr_core::seed::mix(seed.wrapping_add(i as u64));
+        let mut img =
+            uwnr_core::Image::from_planar(w, h, 3, values[i * 3 * n..(i + 1) * 3 * n].to_vec())
+                .map_err(|e| failed("a render", e.to_string()))?;
+        let depth =
+            uwnr_core::Image::from_planar(w, h, 1, batch.depth[i * n..(i + 1) * n].to_vec())
+                .map_err(|e| failed("a depth map", e.to_string()))?;
+        let water = &batch.water[i * WATER_VALUES..];
+        let veil = [water[0], water[1], water[2]];
+        stages
+            .effects
+            .apply_at_scale(&mut img, &depth, veil, s, unit)
+            .map_err(|e| failed("effects", e.to_string()))?;
+        let img = stages
+            .camera
+            .apply_at_scale(&img, uwnr_render::Camera::seed(s), unit)
+            .map_err(|e| failed("camera", e.to_string()))?;
+        seen.extend_from_slice(img.data());
+    }
+    let staged = Tensor::<4>::from_data(TensorData::new(seen, [b, 3, h, w]), device);
+    Ok(out.clone() + (staged - out.detach()))
+}
+
+/// One adversarial step (module doc): a discriminator update, then a generator update, at the
+/// learning rate `lr_seed.0`; `lr_seed.1` draws the stages' particles and noise.
 /// Returns the module and `[d_loss, adversarial, content, paired, total]`.
 pub fn adversarial_step(
     model: Critic,
@@ -112,7 +172,7 @@ pub fn adversarial_step(
     criterion: &Criterion,
     adv: &AdversarialConfig,
     batch: &Batch,
-    lr: f64,
+    (lr, seed): (f64, u64),
     device: &Device,
 ) -> Result<(Critic, [f64; 5])> {
     let t = BatchTensors::new(batch, device)?;
@@ -130,9 +190,13 @@ pub fn adversarial_step(
     // the generator no gradient to push them further (unclamped, a run diverged at step 114).
     let out = finish_tensor(raw, t.anchor, t.depth, t.veil, t.beta).clamp(0.0, 1.0); // [b, 3, c, c]
     let k = adv.downsample;
+    let seen = match &adv.stages {
+        Some(st) => through_stages(out.clone(), batch, st, seed, device)?,
+        None => out.clone(),
+    };
 
     let real_logits = model.discriminator.forward(pool(t.real.clone(), k));
-    let fake_logits = model.discriminator.forward(pool(out.clone().detach(), k));
+    let fake_logits = model.discriminator.forward(pool(seen.clone().detach(), k));
     let d_loss = adv.loss.discriminator(real_logits, fake_logits);
     let mut grads = d_loss.backward();
     let d_grads = GradientsParams::from_module(&mut grads, &model.discriminator);
@@ -140,7 +204,7 @@ pub fn adversarial_step(
 
     let g_adv = adv
         .loss
-        .generator(model.discriminator.forward(pool(out.clone(), k)));
+        .generator(model.discriminator.forward(pool(seen, k)));
     let content = l1(out.clone(), plain);
     let paired = criterion.forward(out, t.real).total;
     let total = g_adv.clone() * adv.weight + content.clone() * adv.content + paired.clone();

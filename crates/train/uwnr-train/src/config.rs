@@ -179,6 +179,37 @@ pub struct AdversarialConfig {
     pub loss: GanLoss,
     /// The PatchGAN discriminator.
     pub discriminator: DiscriminatorConfig,
+    /// The stages a render goes through after the model (the water's effects and the camera),
+    /// applied to what the discriminator sees; absent, it sees the model's render alone.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stages: Option<RenderStages>,
+}
+
+/// What a dataset's render goes through after the model, for the discriminator's eyes
+/// ([`crate::adversarial`]): the real photos it is compared with passed through water's
+/// effects and a camera, and without them a discriminator tells renders from photos by what the
+/// correction cannot change. Straight-through: the generator's gradient passes the stages as if
+/// they were not there.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RenderStages {
+    /// The water's effects (uwnr's default when absent).
+    pub effects: uwnr_model::WaterEffects,
+    /// The camera (`typical` when absent).
+    pub camera: uwnr_render::Camera,
+    /// Shorter side (px) of the frames the training crops come from, which sizes the particles,
+    /// the point spreads and the lens blur as in a render of the whole frame.
+    pub frame: usize,
+}
+
+impl Default for RenderStages {
+    fn default() -> Self {
+        Self {
+            effects: uwnr_model::WaterEffects::DEFAULT,
+            camera: uwnr_render::Camera::TYPICAL,
+            frame: 256,
+        }
+    }
 }
 
 impl Default for AdversarialConfig {
@@ -194,6 +225,7 @@ impl Default for AdversarialConfig {
                 width: 32,
                 layers: 2,
             },
+            stages: None,
         }
     }
 }
@@ -231,6 +263,17 @@ impl AdversarialConfig {
         }
         if let Err(e) = self.discriminator.validate() {
             return bad("adversarial.discriminator", e.to_string());
+        }
+        if let Some(st) = &self.stages {
+            if st.frame == 0 {
+                return bad("adversarial.stages.frame", "must be at least 1".into());
+            }
+            if let Err(e) = st.effects.validate() {
+                return bad("adversarial.stages.effects", e.to_string());
+            }
+            if let Err(e) = st.camera.validate() {
+                return bad("adversarial.stages.camera", e.to_string());
+            }
         }
         let seen = cfg.crop / self.downsample;
         if seen < self.discriminator.min_input() {

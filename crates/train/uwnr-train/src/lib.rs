@@ -43,7 +43,7 @@ pub mod losses;
 pub mod trainer;
 pub mod vgg;
 
-pub use adversarial::{ADVERSARIAL_TERMS, Critic, adversarial_step};
+pub use adversarial::{ADVERSARIAL_TERMS, Critic, adversarial_step, through_stages};
 pub use burn_render::{BurnForward, RenderOn, network_from_generator};
 pub use burn_weights::{
     generator_from_tensors, generator_to_tensors, load_generator, load_generator_from_bytes,
@@ -51,7 +51,7 @@ pub use burn_weights::{
 };
 pub use config::{
     AdversarialConfig, AugmentConfig, ColorCast, LightFieldLoss, LossWeights, PerceptualFallback,
-    SmallImagePolicy, TrainConfig,
+    RenderStages, SmallImagePolicy, TrainConfig,
 };
 pub use error::{Result, TrainError};
 pub use generator::{ChannelMeans, Generator, GeneratorInit};

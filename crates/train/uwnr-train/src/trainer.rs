@@ -171,6 +171,13 @@ pub fn train(
             a.discriminator.width,
             a.downsample
         )));
+        if let Some(st) = &a.stages {
+            observer(Event::Message(&format!(
+                "the discriminator sees renders through the effects and the camera of a {} px frame \
+                 (straight-through: the generator's gradient passes them unchanged)",
+                st.frame
+            )));
+        }
     }
     let source = Arc::new(BatchSpec {
         pairs: Arc::new(pairs),
@@ -369,16 +376,19 @@ impl Task for AdversarialTask<'_> {
         model: Critic,
         optim: &mut ModuleOptimizer,
         batch: Batch,
-        _step: usize,
+        step: usize,
         lr: f64,
     ) -> Result<(Critic, Vec<f64>)> {
+        // The stages' particles and noise are drawn from the run's seed and the step, so a
+        // resumed run draws what an uninterrupted one would.
+        let seed = uwnr_core::seed::mix(self.base.cfg.run.seed ^ (step as u64));
         let (model, values) = adversarial_step(
             model,
             optim,
             &self.base.criterion,
             &self.adv,
             &batch,
-            lr,
+            (lr, seed),
             self.base.device(),
         )?;
         Ok((model, values.to_vec()))

@@ -9,7 +9,7 @@ use uwnr_core::io::save_rgb;
 use uwnr_model::{Correction, GeneratorConfig, read_weights};
 use uwnr_run::RunSettings;
 use uwnr_run::checkpoint::{CHECKPOINTS_DIR, LAST};
-use uwnr_train::config::LossWeights;
+use uwnr_train::config::{LossWeights, RenderStages};
 use uwnr_train::{AdversarialConfig, Device, GENERATOR_FILE, TrainConfig, TrainOptions};
 
 use crate::training::run;
@@ -80,10 +80,28 @@ fn generator_weights(run: &Path) -> std::collections::BTreeMap<String, Vec<f32>>
 
 #[test]
 fn an_adversarial_run_moves_the_correction_and_resumes_exactly() {
+    moves_and_resumes(&config(2));
+}
+
+#[test]
+fn a_run_through_the_render_stages_resumes_exactly() {
+    // The stages draw particles and noise from the run's seed and the step: a resumed run draws
+    // what the uninterrupted one did.
+    let mut cfg = config(2);
+    if let Some(a) = cfg.adversarial.as_mut() {
+        a.stages = Some(RenderStages {
+            frame: 64,
+            ..RenderStages::default()
+        });
+    }
+    moves_and_resumes(&cfg);
+}
+
+fn moves_and_resumes(cfg: &TrainConfig) {
     let tmp = tempfile::tempdir().unwrap();
     let data = tmp.path().join("pairs");
     make_dir(&data, 4, 40);
-    let cfg = config(2);
+    let cfg = cfg.clone();
     let whole = TrainOptions::new(vec![data.clone()], tmp.path().join("a"), Device::flex());
     let a = run(&cfg, &whole, None);
     assert!(a.finished && a.step == 4 && a.losses.is_empty());
@@ -178,9 +196,16 @@ fn a_step_updates_both_networks() {
     };
     let criterion = uwnr_train::Criterion::new(&cfg, None);
     let mut optim = AdamWConfig::new().init();
-    let (after, values) =
-        uwnr_train::adversarial_step(critic, &mut optim, &criterion, &adv, &batch, 1e-3, &device)
-            .unwrap();
+    let (after, values) = uwnr_train::adversarial_step(
+        critic,
+        &mut optim,
+        &criterion,
+        &adv,
+        &batch,
+        (1e-3, 0),
+        &device,
+    )
+    .unwrap();
     assert_eq!(values[2], 0.0, "{values:?}");
     let flat = |m: &uwnr_train::Critic, disc: bool| -> Vec<f32> {
         let w = if disc {
@@ -200,4 +225,69 @@ fn a_step_updates_both_networks() {
         flat(&after, false),
         "generator unchanged"
     );
+}
+
+#[test]
+fn the_stages_change_what_the_discriminator_sees_but_not_the_gradient() {
+    use burn::tensor::{Tensor, TensorData};
+    use uwnr_train::loader::Batch;
+    let device = Device::flex().autodiff();
+    let (b, c) = (2, 32);
+    let n = c * c;
+    let values: Vec<f32> = (0..b * 3 * n)
+        .map(|i| 0.2 + 0.6 * ((i % 17) as f32 / 17.0))
+        .collect();
+    let batch = Batch {
+        epoch: 0,
+        index: 0,
+        size: b,
+        crop: c,
+        input: vec![0.0; b * 9 * n],
+        target: vec![0.0; b * 3 * n],
+        depth: (0..b * n).map(|i| (i % c) as f32 / c as f32).collect(),
+        water: [0.1, 0.5, 0.6, 0.8, 0.3, 0.2].repeat(b),
+    };
+    let stages = RenderStages::default();
+    let out = || {
+        Tensor::<4>::from_data(TensorData::new(values.clone(), [b, 3, c, c]), &device)
+            .require_grad()
+    };
+    let seen = |seed: u64| -> Vec<f32> {
+        uwnr_train::through_stages(out(), &batch, &stages, seed, &device)
+            .unwrap()
+            .into_data()
+            .try_to_vec::<f32>()
+            .unwrap()
+    };
+    let (a, a2, other) = (seen(5), seen(5), seen(6));
+    assert_eq!(a, a2, "drawn from the seed");
+    assert_ne!(a, other, "another seed draws other particles and noise");
+    let moved = a
+        .iter()
+        .zip(&values)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0_f32, f32::max);
+    assert!(
+        moved > 0.02,
+        "the stages moved the renders by at most {moved}"
+    );
+    assert!(a.iter().all(|v| (0.0..=1.0).contains(v)));
+    // On 8-bit levels, as the camera's output is.
+    assert!(
+        a.iter()
+            .all(|v| ((v * 255.0).round() - v * 255.0).abs() < 1e-3)
+    );
+    // Straight-through: the gradient of a weighted sum is the weights.
+    let x = out();
+    let w: Vec<f32> = (0..b * 3 * n).map(|i| (i % 7) as f32 - 3.0).collect();
+    let wt = Tensor::from_data(TensorData::new(w.clone(), [b, 3, c, c]), &device);
+    let s = uwnr_train::through_stages(x.clone(), &batch, &stages, 5, &device).unwrap();
+    let grads = (s * wt).sum().backward();
+    let g = x
+        .grad(&grads)
+        .unwrap()
+        .into_data()
+        .try_to_vec::<f32>()
+        .unwrap();
+    assert_eq!(g, w);
 }
