@@ -45,6 +45,7 @@ pub(crate) struct NativeReference {
     image: Image,
     paper: OnceLock<Result<Image, String>>,
     absolute: OnceLock<Result<Image, String>>,
+    global: OnceLock<Result<Image, String>>,
     /// The water per (anchor, detail retention) a network has asked for.
     water: std::sync::Mutex<Vec<((uwnr_model::AnchorKind, bool), uwnr_model::Water)>>,
 }
@@ -55,6 +56,7 @@ impl NativeReference {
         let cell = match map {
             LightFieldMap::Paper => &self.paper,
             LightFieldMap::Absolute => &self.absolute,
+            LightFieldMap::Global => &self.global,
         };
         cell.get_or_init(|| light_field_with(&self.image, map).map_err(|e| e.to_string()))
             .as_ref()
@@ -103,6 +105,7 @@ impl NativeReference {
             image,
             paper: OnceLock::new(),
             absolute: OnceLock::new(),
+            global: OnceLock::new(),
             water: std::sync::Mutex::new(Vec::new()),
         })
     }

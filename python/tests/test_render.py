@@ -162,6 +162,10 @@ def test_a_reference_object_equals_the_array_it_holds(network):
     assert (r.width, r.height) == (48, 64)
     assert np.array_equal(network.render(clean, r), network.render(clean, ref))
     assert np.array_equal(r.light_field("absolute"), uwnr.lightfield(ref))
+    flat = r.light_field("global")
+    assert flat.shape == (256, 256, 3)
+    assert np.all(flat == flat[0, 0]), "one value per channel"
+    assert np.allclose(flat[0, 0], r.light_field("absolute").mean(axis=(0, 1)), atol=3 / 255)
 
 
 def test_depth_maps_are_used_and_resized(network):

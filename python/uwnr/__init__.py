@@ -45,8 +45,9 @@ __version__: str = _uwnr.__version__
 
 #: The methods a :class:`Renderer` can use.
 METHODS = tuple(_uwnr.METHODS)
-#: The light field normalisations: the paper's min-max map, or the fixed-range map.
-LIGHT_FIELD_MAPS = ("paper", "absolute")
+#: The light field normalisations: the paper's min-max map, the fixed-range map, or the
+#: fixed-range map's mean over the frame (brightness without layout).
+LIGHT_FIELD_MAPS = ("paper", "absolute", "global")
 #: What can run the network in this build, the default first: "engine" (uwnr's own CPU
 #: inference engine), "flex" (burn's CPU backend), "tch" in builds with libtorch.
 DEVICES = tuple(_uwnr.DEVICES)
@@ -93,7 +94,8 @@ class Reference:
     def light_field(self, map: str = "absolute") -> np.ndarray:
         """The 256x256x3 light field map (float32 in [0, 1]) the network sees for this reference:
         multi-scale log luminance, normalised as ``map`` says (``"paper"``: min-max, as the
-        released code; ``"absolute"``: fixed range, as the bundled model)."""
+        released code; ``"absolute"``: fixed range, as the bundled model; ``"global"``: the
+        absolute map's mean over the frame, channel by channel)."""
         if map not in LIGHT_FIELD_MAPS:
             raise ValueError(f"unknown light field map {map!r} (one of {', '.join(LIGHT_FIELD_MAPS)})")
         data = self._native.light_field(map)
