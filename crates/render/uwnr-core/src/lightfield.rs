@@ -70,8 +70,8 @@ pub enum LightFieldMap {
     /// darker or lower-contrast reference gives a darker or flatter map. Otherwise identical.
     Absolute,
     /// The absolute map's mean over the frame, channel by channel: the reference's overall
-    /// brightness at each scale, none of its layout (a network fed it cannot paint the
-    /// reference's dark and bright regions over a photo).
+    /// brightness at each scale, none of its layout (a network fed it cannot copy the
+    /// reference's scene).
     Global,
 }
 
