@@ -123,27 +123,28 @@ impl WaterEffects {
     /// Applies the stages to `img` (RGB in [0, 1]) over `depth` (1 plane, its size, larger is
     /// farther) in a water whose veil is `veil`; `seed` draws the particles and the medium.
     pub fn apply(&self, img: &mut Image, depth: &Image, veil: [f32; 3], seed: u64) -> Result<()> {
-        let unit = img.width().min(img.height()) as f32 / UNIT_SIDE;
-        self.apply_at_scale(img, depth, veil, seed, unit)
+        let frame = img.width().min(img.height()) as f32;
+        self.apply_in_frame(img, depth, veil, seed, frame)
     }
 
     /// [`Self::apply`] on a crop of a larger frame: spots and point spreads sized for a frame
-    /// of `unit` x 256 px (`apply` takes the image's own shorter side), particles as many per
+    /// whose shorter side is `frame` px (`apply` takes the image's own), particles as many per
     /// pixel as in the frame.
-    pub fn apply_at_scale(
+    pub fn apply_in_frame(
         &self,
         img: &mut Image,
         depth: &Image,
         veil: [f32; 3],
         seed: u64,
-        unit: f32,
+        frame: f32,
     ) -> Result<()> {
         self.validate()?;
-        if !(unit.is_finite() && unit > 0.0) {
+        if !(frame.is_finite() && frame > 0.0) {
             return Err(ModelError::InvalidOptions(format!(
-                "effects scale {unit} must be finite and > 0"
+                "effects frame side {frame} must be finite and > 0"
             )));
         }
+        let unit = frame / UNIT_SIDE;
         if self.is_none() {
             return Ok(());
         }
@@ -390,20 +391,20 @@ mod tests {
 
     #[test]
     fn a_crop_takes_its_frames_scale() {
-        // `apply` is `apply_at_scale` at the image's own side / 256; a larger frame's scale
-        // spreads the far parts more.
+        // `apply` is `apply_in_frame` at the image's own side; a larger frame spreads the far
+        // parts more.
         let (w, h) = (64, 64);
         let fx = WaterEffects::DEFAULT;
         let (mut own, mut same, mut framed) = (stripes(w, h), stripes(w, h), stripes(w, h));
         fx.apply(&mut own, &ramp(w, h), [0.1, 0.5, 0.4], 3).unwrap();
-        fx.apply_at_scale(&mut same, &ramp(w, h), [0.1, 0.5, 0.4], 3, 0.25)
+        fx.apply_in_frame(&mut same, &ramp(w, h), [0.1, 0.5, 0.4], 3, 64.0)
             .unwrap();
-        fx.apply_at_scale(&mut framed, &ramp(w, h), [0.1, 0.5, 0.4], 3, 1.0)
+        fx.apply_in_frame(&mut framed, &ramp(w, h), [0.1, 0.5, 0.4], 3, 256.0)
             .unwrap();
         assert_eq!(own.data(), same.data());
         assert!(contrast(&framed, 48, 64) < contrast(&own, 48, 64));
         assert!(
-            fx.apply_at_scale(&mut framed, &ramp(w, h), [0.1, 0.5, 0.4], 3, f32::NAN)
+            fx.apply_in_frame(&mut framed, &ramp(w, h), [0.1, 0.5, 0.4], 3, f32::NAN)
                 .is_err()
         );
     }

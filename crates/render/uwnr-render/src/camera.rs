@@ -128,17 +128,16 @@ impl Camera {
     /// `img` (RGB in [0, 1]) through the camera, with noise drawn from `seed`; the output is on
     /// 8-bit levels.
     pub fn apply(&self, img: &Image, seed: u64) -> Result<Image> {
-        let unit = img.width().min(img.height()) as f32 / UNIT_SIDE;
-        self.apply_at_scale(img, seed, unit)
+        self.apply_in_frame(img, seed, img.width().min(img.height()) as f32)
     }
 
-    /// [`Self::apply`] on a crop of a larger frame: the lens blur sized for a frame of `unit` x
-    /// 256 px (`apply` takes the image's own shorter side).
-    pub fn apply_at_scale(&self, img: &Image, seed: u64, unit: f32) -> Result<Image> {
+    /// [`Self::apply`] on a crop of a larger frame: the lens blur sized for a frame whose
+    /// shorter side is `frame` px (`apply` takes the image's own).
+    pub fn apply_in_frame(&self, img: &Image, seed: u64, frame: f32) -> Result<Image> {
         self.validate()?;
-        if !(unit.is_finite() && unit > 0.0) {
+        if !(frame.is_finite() && frame > 0.0) {
             return Err(RenderError::Invalid(format!(
-                "camera scale {unit} must be finite and > 0"
+                "camera frame side {frame} must be finite and > 0"
             )));
         }
         if img.channels() != 3 {
@@ -150,7 +149,7 @@ impl Camera {
         let (w, h) = img.size();
         let mut out = img.clone();
         if self.blur > 0.0 {
-            let sigma = f64::from(self.blur * unit);
+            let sigma = f64::from(self.blur * frame / UNIT_SIDE);
             for c in 0..3 {
                 uwnr_model::blur::blur_plane(out.plane_mut(c), w, h, sigma);
             }
@@ -214,7 +213,7 @@ mod tests {
     #[test]
     fn a_crop_is_blurred_as_its_frame_is() {
         // `apply` sizes the lens blur by the image's own side; a 64 px crop of a 256 px frame
-        // is blurred by the frame's sigma with `apply_at_scale(.., 1.0)`, 4x the crop's own.
+        // is blurred by the frame's sigma with `apply_in_frame(.., 256.0)`, 4x the crop's own.
         let cam = Camera {
             jpeg_quality: 0,
             read_noise: 0.0,
@@ -232,14 +231,14 @@ mod tests {
         let own = cam.apply(&img, 1).unwrap();
         assert_eq!(
             own.data(),
-            cam.apply_at_scale(&img, 1, 0.25).unwrap().data()
+            cam.apply_in_frame(&img, 1, 64.0).unwrap().data()
         );
-        let framed = cam.apply_at_scale(&img, 1, 1.0).unwrap();
+        let framed = cam.apply_in_frame(&img, 1, 256.0).unwrap();
         // The first bright pixel: nearly the bright side under the crop's own 0.2 px sigma,
         // pulled towards the edge's middle under the frame's 0.8 px.
         let (a, b) = (own.plane(0)[32], framed.plane(0)[32]);
         assert!(a > 0.78 && b < 0.7, "{a} {b}");
-        assert!(cam.apply_at_scale(&img, 1, 0.0).is_err());
+        assert!(cam.apply_in_frame(&img, 1, 0.0).is_err());
     }
 
     #[test]

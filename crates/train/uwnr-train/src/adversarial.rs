@@ -137,7 +137,7 @@ pub fn through_stages(
             format!("renders {b}x{ch}x{h}x{w} against the batch's depth and water"),
         ));
     }
-    let unit = stages.frame as f32 / 256.0;
+    let frame = stages.frame as f32;
     let mut seen = Vec::with_capacity(values.len());
     for i in 0..b {
         let s = uwnr_core::seed::mix(seed.wrapping_add(i as u64));
@@ -151,11 +151,11 @@ pub fn through_stages(
         let veil = [water[0], water[1], water[2]];
         stages
             .effects
-            .apply_at_scale(&mut img, &depth, veil, s, unit)
+            .apply_in_frame(&mut img, &depth, veil, s, frame)
             .map_err(|e| failed("effects", e.to_string()))?;
         let img = stages
             .camera
-            .apply_at_scale(&img, uwnr_render::Camera::seed(s), unit)
+            .apply_in_frame(&img, uwnr_render::Camera::seed(s), frame)
             .map_err(|e| failed("camera", e.to_string()))?;
         seen.extend_from_slice(img.data());
     }
