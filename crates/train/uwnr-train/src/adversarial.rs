@@ -164,7 +164,7 @@ pub fn through_stages(
 }
 
 /// One adversarial step (module doc): a discriminator update, then a generator update, at the
-/// learning rate `lr_seed.0`; `lr_seed.1` draws the stages' particles and noise.
+/// learning rate `lr`; `seed` draws the stages' particles and noise.
 /// Returns the module and `[d_loss, adversarial, content, paired, total]`.
 pub fn adversarial_step(
     model: Critic,
