@@ -125,18 +125,18 @@ pub fn through_stages(
             "the render stages ({what}): {e}"
         )))
     };
-    let values = out
-        .clone()
-        .detach()
-        .into_data()
-        .try_to_vec::<f32>()
-        .map_err(|e| failed("reading the renders", format!("{e:?}")))?;
     if ch != 3 || batch.depth.len() != b * n || batch.water.len() != b * WATER_VALUES {
         return Err(failed(
             "shapes",
             format!("renders {b}x{ch}x{h}x{w} against the batch's depth and water"),
         ));
     }
+    let values = out
+        .clone()
+        .detach()
+        .into_data()
+        .try_to_vec::<f32>()
+        .map_err(|e| failed("reading the renders", format!("{e:?}")))?;
     let frame = stages.frame as f32;
     let mut seen = Vec::with_capacity(values.len());
     for i in 0..b {
