@@ -36,6 +36,9 @@ WEIGHTS=${WEIGHTS-}
 # METHOD_CONFIG renders the uwnr set with a method spec (`--method-config`), e.g. another model's
 # effects with an earlier build (docs/results/model-v7-downstream.md).
 METHOD_CONFIG=${METHOD_CONFIG-}
+# CAMERA sets the camera stage of every training set (`--camera`: none, typical or a JSON object);
+# unset, `uwnr experiment downstream`'s default (typical).
+CAMERA=${CAMERA-}
 SPLITS=${SPLITS:-../uwnr-splits}
 [ -d "$SPLITS/lsui-test" ] || bash tools/lsui_split.sh "$SPLITS" >/dev/null
 export LIBTORCH_USE_PYTORCH=1
@@ -49,6 +52,6 @@ exec "$BIN" experiment downstream \
   --references "$DATA/references" \
   --test "$DATA/paired/uieb-val" "$DATA/paired/lsui" "$SPLITS/lsui-test" \
   ${REAL:+--real "$REAL"} ${TARGET:+--target "$TARGET"} \
-  ${WEIGHTS:+--weights "$WEIGHTS"} ${METHOD_CONFIG:+--method-config "$METHOD_CONFIG"} \
+  ${WEIGHTS:+--weights "$WEIGHTS"} ${METHOD_CONFIG:+--method-config "$METHOD_CONFIG"} ${CAMERA:+--camera "$CAMERA"} \
   ${METHODS:+--methods "$METHODS"} --per-image 4 --size 256x256 \
   --budget 6000 --seed "$SEED" --device "$DEVICE" --out "$OUT"

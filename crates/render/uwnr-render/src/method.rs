@@ -16,6 +16,7 @@ use uwnr_baselines::{
     JerlovParams, Method, ReferenceCoefficients, ReinhardParams, SampledCoefficients,
     SeathruCoefficients, SeathruParams, UisaParams,
 };
+use uwnr_model::water::CleanBalance;
 use uwnr_model::{RenderOptions, WaterEffects};
 
 use crate::error::{RenderError, Result};
@@ -196,6 +197,10 @@ pub struct UwnrSpec {
     /// the water removes, forward scattering, an uneven medium), drawn from each render's seed;
     /// `uwnr_model::WaterEffects::DEFAULT` unless set.
     pub effects: WaterEffects,
+    /// Per-channel gains on the clean photo before the water, bringing it to the white point
+    /// of the real pairs' clean sides the waters were fitted from
+    /// (`uwnr_model::water::CleanBalance`); `[1, 1, 1]` for none. The bank's unless set.
+    pub balance: CleanBalance,
 }
 
 impl Default for UwnrSpec {
@@ -209,6 +214,7 @@ impl Default for UwnrSpec {
             tile: o.tile,
             overlap: o.overlap,
             effects: WaterEffects::DEFAULT,
+            balance: CleanBalance::BANK,
         }
     }
 }
@@ -421,6 +427,7 @@ impl MethodSpec {
                 s.render_options()
                     .validate()
                     .and_then(|()| s.effects.validate())
+                    .and_then(|()| s.balance.validate())
                     .map_err(|e| RenderError::Invalid(e.to_string()))?;
                 Ok(())
             }

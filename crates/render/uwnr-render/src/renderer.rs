@@ -9,6 +9,7 @@ use serde_json::{Map, Value};
 use uwnr_baselines::{Method, RenderInput};
 use uwnr_core::Image;
 use uwnr_core::error::Cause;
+use uwnr_model::water::CleanBalance;
 use uwnr_model::{
     Backend, DepthResponse, GeneratorConfig, ReferenceStyle, RenderOptions, WaterEffects,
 };
@@ -35,6 +36,8 @@ struct Network {
     precision: Precision,
     /// The stages after the water (`uwnr_model::effects`).
     effects: WaterEffects,
+    /// The clean photo's gains before the water (`uwnr_model::water::CleanBalance`).
+    balance: CleanBalance,
 }
 
 /// The GAN baseline's generator, loaded.
@@ -170,6 +173,7 @@ impl Renderer {
             tile: options.tile,
             overlap: options.overlap,
             effects: WaterEffects::NONE,
+            balance: CleanBalance::NONE,
             ..UwnrSpec::default()
         });
         Self {
@@ -182,6 +186,7 @@ impl Renderer {
                 fingerprint: fingerprint(weight_bytes),
                 precision,
                 effects: WaterEffects::NONE,
+                balance: CleanBalance::NONE,
             })),
             without_reference: None,
         }
@@ -255,6 +260,19 @@ impl Renderer {
         }
     }
 
+    /// `clean` as the method's water starts from it: for the uwnr method at its clean balance
+    /// (`uwnr_model::water::CleanBalance`), against which a calibrated water's strength is
+    /// measured; `clean` itself for the others.
+    pub fn balanced<'a>(&self, clean: &'a Image) -> Result<std::borrow::Cow<'a, Image>> {
+        match &self.imp {
+            Imp::Uwnr(n) => n
+                .balance
+                .apply(clean)
+                .map_err(|e| failed("balancing the clean photo", e)),
+            _ => Ok(std::borrow::Cow::Borrowed(clean)),
+        }
+    }
+
     /// The settings a dataset records and compares on resume: for the networks their weights'
     /// origin and fingerprint, config and precision (bf16 only; f32 is the old form); for the
     /// others their spec.
@@ -266,6 +284,7 @@ impl Renderer {
                 config: &n.config,
                 precision: n.precision,
                 effects: &n.effects,
+                balance: &n.balance,
             }),
             Imp::Uwgan(g) => serde_json::to_value(GanRecord {
                 weights: &g.weights,
@@ -391,8 +410,12 @@ impl Worker<'_> {
                     depth: *response,
                     ..net.options
                 };
+                let balanced = net
+                    .balance
+                    .apply(clean)
+                    .map_err(|e| failed("balancing the clean photo", e))?;
                 let mut image = generator
-                    .render(clean, depth, style, &options)
+                    .render(&balanced, depth, style, &options)
                     .map_err(|e| failed("rendering", e))?;
                 if !net.effects.is_none() {
                     // A network without a water (the paper's variant) lights particles and
@@ -544,6 +567,7 @@ fn load_network(s: &UwnrSpec) -> Result<Network> {
         fingerprint: fingerprint(&bytes),
         precision: s.precision,
         effects: s.effects,
+        balance: s.balance,
     })
 }
 
@@ -575,6 +599,9 @@ struct NetworkRecord<'a> {
     /// The stages after the water; absent when none runs.
     #[serde(skip_serializing_if = "WaterEffects::is_none")]
     effects: &'a WaterEffects,
+    /// The clean balance; absent when none (as in datasets made before it).
+    #[serde(skip_serializing_if = "CleanBalance::is_none")]
+    balance: &'a CleanBalance,
 }
 
 fn is_f32(p: &Precision) -> bool {

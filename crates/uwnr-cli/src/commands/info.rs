@@ -94,11 +94,14 @@ fn describe_bundled(config: &GeneratorConfig) -> Result<ExitCode> {
     }
     println!("correction:  none: no network is loaded or run, no light field is computed");
     println!(
-        "renders:     the reference's water (gain and offset per channel, read off its statistics \
-         by the bundled water bank's linear regressor) on the photo's own colours{}; the depth \
+        "renders:     the photo brought to the white point of the real pairs' clean sides (the \
+         clean balance, R G B x {:?}); the reference's water (gain and offset per channel, read \
+         off its statistics by the bundled water bank's linear regressor) on the photo's own \
+         colours{}; the depth \
          stage (farther is hazier); the effects (particles, light from above, colours the water \
          removes, forward scattering that widens with distance; a medium and a vignette are \
          off; `--method-config` sets them)",
+        uwnr_model::water::CleanBalance::BANK.0,
         if config.detail_retention {
             ", with the reference's share of fine detail"
         } else {

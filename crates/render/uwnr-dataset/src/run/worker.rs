@@ -242,12 +242,15 @@ impl Context<'_> {
         labels: &PairLabels,
     ) -> std::result::Result<(MethodRecord, Option<String>, Option<f32>), String> {
         // A calibrated water: the reference's style with the pair's own water in it, the water's
-        // scale corrected on the render itself until its strength is the target's.
+        // scale corrected on the render itself until its strength is the target's, measured
+        // from the clean photo at the method's clean balance (the white point real pairs'
+        // strengths are measured from; `uwnr_model::water::CleanBalance`).
+        let balanced = self.renderer.balanced(clean).map_err(|e| e.to_string())?;
         let mut calibration = match (self.calibration, reference) {
             (Some(target), Some((_, style))) => match style.water.as_ref() {
                 Some(water) => Some(
                     target
-                        .water_for(water.affine, clean, seed)
+                        .water_for(water.affine, &balanced, seed)
                         .map_err(|e| e.to_string())?,
                 ),
                 None => None,
@@ -294,7 +297,7 @@ impl Context<'_> {
             let Some(pw) = calibration.as_mut() else {
                 break rendered;
             };
-            let db = uwnr_model::water::pair_psnr(&rendered.image.quantised(), clean)
+            let db = uwnr_model::water::pair_psnr(&rendered.image.quantised(), &balanced)
                 .map_err(|e| e.to_string())?;
             if !pw.corrected(db) {
                 break rendered;
@@ -341,9 +344,11 @@ impl Context<'_> {
         if let (Some(pw), MethodRecord::Uwnr(record)) = (&calibration, &mut params) {
             record.strength = Some(pw.record());
         }
-        // The pair as stored: both sides 8-bit (a calibrated pair's last render was measured).
+        // The pair as stored: both sides 8-bit (a calibrated pair's last render was measured,
+        // from the clean photo as stored unless it was balanced).
+        let is_balanced = matches!(balanced, std::borrow::Cow::Owned(_));
         let strength_db = match calibration.as_ref().and_then(|pw| pw.rendered_db.last()) {
-            Some(&db) if camera.is_none() => Some(db),
+            Some(&db) if camera.is_none() && !is_balanced => Some(db),
             _ => uwnr_model::water::pair_psnr(&underwater.quantised(), clean).ok(),
         }
         .filter(|v| v.is_finite());

@@ -224,3 +224,85 @@ fn the_camera_stage_is_applied_recorded_and_refused_on_resume_when_changed() {
         "{err}"
     );
 }
+
+#[test]
+fn the_clean_balance_is_calibrated_from_recorded_and_refused_on_resume_when_changed() {
+    use uwnr_model::water::{CleanBalance, pair_psnr};
+    use uwnr_render::{MethodSpec, Renderer, UwnrSpec};
+    if uwnr_model::bundled_model_bytes().is_none() {
+        eprintln!("skipped: this build has no bundled model (`cargo test --workspace` has it)");
+        return;
+    }
+    let uwnr = |balance: CleanBalance| {
+        Renderer::load(MethodSpec::Uwnr(UwnrSpec {
+            effects: uwnr_model::WaterEffects::NONE,
+            balance,
+            ..UwnrSpec::default()
+        }))
+        .unwrap()
+    };
+    let tmp = tempfile::tempdir().unwrap();
+    let (clean, refs) = inputs(tmp.path(), 3, 3);
+    let mut sp = spec(&clean, &refs, 1);
+    sp.target = Some(uwnr_dataset::WaterTarget::bundled().unwrap());
+    let (none, bank) = (tmp.path().join("none"), tmp.path().join("bank"));
+    run(&none, &sp, &uwnr(CleanBalance::NONE), &opts(1));
+    run(&bank, &sp, &uwnr(CleanBalance::BANK), &opts(2));
+    let read = |dir: &std::path::Path| {
+        serde_json::from_slice::<serde_json::Value>(
+            &std::fs::read(dir.join("dataset.json")).unwrap(),
+        )
+        .unwrap()
+    };
+    // Recorded in the method's settings when it runs; absent (the old form) when none.
+    let (with, without) = (read(&bank), read(&none));
+    assert_eq!(
+        with["method_params"]["balance"],
+        serde_json::json!(CleanBalance::BANK.0),
+        "{with}"
+    );
+    assert!(
+        without["method_params"].get("balance").is_none(),
+        "{without}"
+    );
+    // The clean side is the photo itself either way; the water's strength was calibrated from
+    // the balanced photo, and the pair records its distance from the photo as stored.
+    let limits = DecodeLimits::default();
+    let m = read_manifest(&bank.join("manifest.jsonl")).unwrap();
+    for (_, r) in &m.records {
+        let load = |root: &std::path::Path, f: &str| load_rgb(&root.join(f), &limits).unwrap();
+        let (c, u) = (load(&bank, &r.clean), load(&bank, &r.underwater));
+        assert_eq!(c, load(&none, &r.clean));
+        let stored = pair_psnr(&u, &c).unwrap();
+        assert!(
+            (r.strength_db.unwrap() - stored).abs() < 1e-3,
+            "{r:?} {stored}"
+        );
+        let from_balanced = pair_psnr(&u, &CleanBalance::BANK.apply(&c).unwrap()).unwrap();
+        let target = r.params.to_value()["strength"]["target_db"]
+            .as_f64()
+            .unwrap() as f32;
+        assert!(
+            (from_balanced - target).abs() < (stored - target).abs() + 1e-3,
+            "calibrated from the balanced photo: target {target}, from it {from_balanced}, \
+             from the stored photo {stored}"
+        );
+    }
+    // The same balance resumes (nothing to do); another one is refused, naming it.
+    let s = run(&bank, &sp, &uwnr(CleanBalance::BANK), &opts(1));
+    assert_eq!((s.skipped, s.rendered), (3, 0));
+    let stop = AtomicBool::new(false);
+    let err = uwnr_dataset::generate(
+        &bank,
+        &sp,
+        &uwnr(CleanBalance::NONE),
+        &opts(1),
+        &stop,
+        &mut |_| {},
+    )
+    .unwrap_err();
+    assert!(
+        matches!(&err, DatasetError::SettingsMismatch { field, .. } if field.contains("balance")),
+        "{err}"
+    );
+}

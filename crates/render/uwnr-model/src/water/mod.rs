@@ -29,7 +29,10 @@ use uwnr_core::resize::{fit_within, resize_bilinear};
 
 use crate::error::{ModelError, Result};
 
+mod balance;
 mod predict;
+
+pub use balance::{BALANCE_RANGE, CleanBalance};
 
 #[cfg(test)]
 use predict::percentile;

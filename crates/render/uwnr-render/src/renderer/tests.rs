@@ -113,3 +113,87 @@ fn missing_weights_are_one_clear_error() {
         "{e}"
     );
 }
+
+#[test]
+fn the_clean_balance_runs_before_the_water_and_is_recorded() {
+    // The bundled model with no effects, at the bank's balance and at none.
+    if uwnr_model::bundled_model_bytes().is_none() {
+        eprintln!("skipped: this build has no bundled model (`cargo test --workspace` has it)");
+        return;
+    }
+    let load = |balance: CleanBalance| {
+        Renderer::load(MethodSpec::Uwnr(UwnrSpec {
+            effects: WaterEffects::NONE,
+            balance,
+            ..UwnrSpec::default()
+        }))
+        .unwrap()
+    };
+    let (bank, none) = (load(CleanBalance::BANK), load(CleanBalance::NONE));
+    assert_eq!(UwnrSpec::default().balance, CleanBalance::BANK);
+    let recorded = bank.settings_params().unwrap();
+    assert_eq!(recorded["balance"], serde_json::json!(CleanBalance::BANK.0));
+    // None keeps the settings' old form, so datasets made before the balance resume unchanged,
+    // and a resume across the two is refused (the records differ).
+    let old = none.settings_params().unwrap();
+    assert!(old.get("balance").is_none(), "{old}");
+    let mut stripped = recorded.clone();
+    stripped.as_object_mut().unwrap().remove("balance");
+    assert_eq!(stripped, old, "nothing else differs");
+
+    // What the calibration measures from: the balanced photo for uwnr, the photo for the rest.
+    let clean = Image::filled(32, 32, 3, 0.5);
+    let balanced = bank.balanced(&clean).unwrap();
+    assert!(balanced.plane(0)[0] < 0.5 && balanced.plane(2)[0] > 0.5);
+    assert!(matches!(
+        none.balanced(&clean).unwrap(),
+        std::borrow::Cow::Borrowed(_)
+    ));
+    let reinhard = Renderer::load(MethodSpec::defaults(MethodKind::Reinhard, true)).unwrap();
+    assert!(matches!(
+        reinhard.balanced(&clean).unwrap(),
+        std::borrow::Cow::Borrowed(_)
+    ));
+
+    // The render after a grey reference: the bank's balance cools it, as the balanced photo.
+    let render = |r: &Renderer| {
+        let prepared = r
+            .prepare_reference(Arc::new(Image::filled(40, 30, 3, 0.3)))
+            .unwrap();
+        r.worker()
+            .render(
+                &clean,
+                &Image::filled(32, 32, 1, 0.5),
+                &DepthResponse::default(),
+                Some(prepared.input()),
+                0,
+            )
+            .unwrap()
+            .image
+    };
+    let (b, n) = (render(&bank), render(&none));
+    let mean = |img: &Image, c: usize| img.plane(c).iter().sum::<f32>() / 1024.0;
+    assert!(
+        mean(&b, 0) < mean(&n, 0),
+        "red {} {}",
+        mean(&b, 0),
+        mean(&n, 0)
+    );
+    assert!(
+        mean(&b, 2) > mean(&n, 2),
+        "blue {} {}",
+        mean(&b, 2),
+        mean(&n, 2)
+    );
+    // A balance out of range is refused before anything is loaded.
+    let bad = MethodSpec::Uwnr(UwnrSpec {
+        balance: CleanBalance([1.0, 1.0, 9.0]),
+        ..UwnrSpec::default()
+    });
+    assert!(
+        bad.validate()
+            .unwrap_err()
+            .to_string()
+            .contains("clean balance")
+    );
+}
