@@ -47,7 +47,7 @@ pub use error::{RenderError, Result};
 pub use haze::HazeParams;
 pub use job::{JobWorker, ReferenceError, RenderJob};
 pub use method::{
-    ComputeDevice, MethodKind, MethodSpec, Precision, ReferenceUse, UwganSpec, UwnrSpec,
+    CleanSide, ComputeDevice, MethodKind, MethodSpec, Precision, ReferenceUse, UwganSpec, UwnrSpec,
 };
 pub use options::{MethodOptions, SeathruSource};
 pub use record::{MethodRecord, depth_record, fnv1a64};

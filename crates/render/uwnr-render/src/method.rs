@@ -201,6 +201,30 @@ pub struct UwnrSpec {
     /// of the real pairs' clean sides the waters were fitted from
     /// (`uwnr_model::water::CleanBalance`); `[1, 1, 1]` for none. The bank's unless set.
     pub balance: CleanBalance,
+    /// What a dataset stores as a pair's clean side: the photo as given, or the photo at the
+    /// clean balance (the white point real pairs' clean sides have, so that a pair is made as a
+    /// real pair is: the underwater side and a clean side at that white point, at the strength
+    /// drawn from real pairs).
+    pub clean_side: CleanSide,
+}
+
+/// What `uwnr dataset` stores as the clean side of the uwnr method's pairs ([`UwnrSpec`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CleanSide {
+    /// The photo as given.
+    #[default]
+    Photo,
+    /// The photo at the method's clean balance.
+    Balanced,
+}
+
+impl CleanSide {
+    /// Whether this is the photo as given (the form datasets had before the choice existed).
+    #[must_use]
+    pub fn is_photo(&self) -> bool {
+        *self == Self::Photo
+    }
 }
 
 impl Default for UwnrSpec {
@@ -215,6 +239,7 @@ impl Default for UwnrSpec {
             overlap: o.overlap,
             effects: WaterEffects::DEFAULT,
             balance: CleanBalance::BANK,
+            clean_side: CleanSide::Photo,
         }
     }
 }

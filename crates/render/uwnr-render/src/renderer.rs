@@ -17,7 +17,7 @@ use uwnr_model::{
 use crate::error::{RenderError, Result};
 use crate::haze::{self, HazeParams};
 use crate::method::{
-    ComputeDevice, MethodKind, MethodSpec, Precision, ReferenceUse, UwganSpec, UwnrSpec,
+    CleanSide, ComputeDevice, MethodKind, MethodSpec, Precision, ReferenceUse, UwganSpec, UwnrSpec,
 };
 use crate::record::{MethodRecord, UwganRecord, UwnrRecord, depth_record, fingerprint};
 use crate::revised::{self, RevisedParams};
@@ -38,6 +38,8 @@ struct Network {
     effects: WaterEffects,
     /// The clean photo's gains before the water (`uwnr_model::water::CleanBalance`).
     balance: CleanBalance,
+    /// What a dataset stores as a pair's clean side.
+    clean_side: CleanSide,
 }
 
 /// The GAN baseline's generator, loaded.
@@ -187,6 +189,7 @@ impl Renderer {
                 precision,
                 effects: WaterEffects::NONE,
                 balance: CleanBalance::NONE,
+                clean_side: CleanSide::Photo,
             })),
             without_reference: None,
         }
@@ -273,6 +276,15 @@ impl Renderer {
         }
     }
 
+    /// What a dataset stores as the clean side of a pair made from `clean`: the photo at the
+    /// clean balance when the uwnr method's `clean_side` says so, `clean` itself otherwise.
+    pub fn clean_side<'a>(&self, clean: &'a Image) -> Result<std::borrow::Cow<'a, Image>> {
+        match &self.imp {
+            Imp::Uwnr(n) if n.clean_side == CleanSide::Balanced => self.balanced(clean),
+            _ => Ok(std::borrow::Cow::Borrowed(clean)),
+        }
+    }
+
     /// The settings a dataset records and compares on resume: for the networks their weights'
     /// origin and fingerprint, config and precision (bf16 only; f32 is the old form); for the
     /// others their spec.
@@ -285,6 +297,7 @@ impl Renderer {
                 precision: n.precision,
                 effects: &n.effects,
                 balance: &n.balance,
+                clean_side: &n.clean_side,
             }),
             Imp::Uwgan(g) => serde_json::to_value(GanRecord {
                 weights: &g.weights,
@@ -568,6 +581,7 @@ fn load_network(s: &UwnrSpec) -> Result<Network> {
         precision: s.precision,
         effects: s.effects,
         balance: s.balance,
+        clean_side: s.clean_side,
     })
 }
 
@@ -602,6 +616,9 @@ struct NetworkRecord<'a> {
     /// The clean balance; absent when none (as in datasets made before it).
     #[serde(skip_serializing_if = "CleanBalance::is_none")]
     balance: &'a CleanBalance,
+    /// What the dataset stores as the clean side; absent for the photo as given.
+    #[serde(skip_serializing_if = "CleanSide::is_photo")]
+    clean_side: &'a CleanSide,
 }
 
 fn is_f32(p: &Precision) -> bool {

@@ -1,6 +1,7 @@
 //! The workers of a run: each takes a clean image, decodes and fits it, computes its depth and
 //! its labels once, draws its references, and renders and writes its K pairs.
 
+use std::borrow::Cow;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -246,6 +247,8 @@ impl Context<'_> {
         // from the clean photo at the method's clean balance (the white point real pairs'
         // strengths are measured from; `uwnr_model::water::CleanBalance`).
         let balanced = self.renderer.balanced(clean).map_err(|e| e.to_string())?;
+        // The pair's clean side: the photo, or the balanced photo when the method says so.
+        let stored = self.renderer.clean_side(clean).map_err(|e| e.to_string())?;
         let mut calibration = match (self.calibration, reference) {
             (Some(target), Some((_, style))) => match style.water.as_ref() {
                 Some(water) => Some(
@@ -322,7 +325,7 @@ impl Context<'_> {
         };
         // The underwater image last: a pair is only recorded once all of it is on disk anyway,
         // but a half-made pair then never has a render without its clean image.
-        write(CLEAN_DIR, &|p| save_rgb(p, clean))?;
+        write(CLEAN_DIR, &|p| save_rgb(p, &stored))?;
         if self.spec.save_depth {
             write(DEPTH_DIR, &|p| save_gray16(p, &depth.map))?;
         }
@@ -345,11 +348,11 @@ impl Context<'_> {
             record.strength = Some(pw.record());
         }
         // The pair as stored: both sides 8-bit (a calibrated pair's last render was measured,
-        // from the clean photo as stored unless it was balanced).
-        let is_balanced = matches!(balanced, std::borrow::Cow::Owned(_));
+        // from the photo as stored when nothing was balanced).
+        let unbalanced = matches!((&balanced, &stored), (Cow::Borrowed(_), Cow::Borrowed(_)));
         let strength_db = match calibration.as_ref().and_then(|pw| pw.rendered_db.last()) {
-            Some(&db) if camera.is_none() && !is_balanced => Some(db),
-            _ => uwnr_model::water::pair_psnr(&underwater.quantised(), clean).ok(),
+            Some(&db) if camera.is_none() && unbalanced => Some(db),
+            _ => uwnr_model::water::pair_psnr(&underwater.quantised(), &stored.quantised()).ok(),
         }
         .filter(|v| v.is_finite());
         Ok((params, reference_source, strength_db))

@@ -288,6 +288,37 @@ fn the_clean_balance_is_calibrated_from_recorded_and_refused_on_resume_when_chan
              from the stored photo {stored}"
         );
     }
+    // With the balanced photo as the clean side, the pair is made as a real pair is: its clean
+    // side at the bank's white point, its strength the calibrated one, against that side.
+    let side = tmp.path().join("side");
+    let balanced_side = Renderer::load(MethodSpec::Uwnr(UwnrSpec {
+        effects: uwnr_model::WaterEffects::NONE,
+        clean_side: uwnr_render::CleanSide::Balanced,
+        ..UwnrSpec::default()
+    }))
+    .unwrap();
+    run(&side, &sp, &balanced_side, &opts(1));
+    assert_eq!(read(&side)["method_params"]["clean_side"], "balanced");
+    let m2 = read_manifest(&side.join("manifest.jsonl")).unwrap();
+    for ((_, r), (_, r2)) in m.records.iter().zip(&m2.records) {
+        let load = |root: &std::path::Path, f: &str| load_rgb(&root.join(f), &limits).unwrap();
+        let photo = load(&bank, &r.clean);
+        let c2 = load(&side, &r2.clean);
+        let expected = CleanBalance::BANK.apply(&photo).unwrap().quantised();
+        assert_eq!(c2, expected, "the stored clean side is the balanced photo");
+        // The same render as with the photo stored (only the clean side differs).
+        assert_eq!(load(&side, &r2.underwater), load(&bank, &r.underwater));
+        let stored = pair_psnr(&load(&side, &r2.underwater), &c2).unwrap();
+        assert!(
+            (r2.strength_db.unwrap() - stored).abs() < 1e-3,
+            "{r2:?} {stored}"
+        );
+        assert!(
+            stored > r.strength_db.unwrap(),
+            "nearer its clean side than the photo"
+        );
+    }
+
     // The same balance resumes (nothing to do); another one is refused, naming it.
     let s = run(&bank, &sp, &uwnr(CleanBalance::BANK), &opts(1));
     assert_eq!((s.skipped, s.rendered), (3, 0));

@@ -141,9 +141,24 @@ fn the_clean_balance_runs_before_the_water_and_is_recorded() {
     stripped.as_object_mut().unwrap().remove("balance");
     assert_eq!(stripped, old, "nothing else differs");
 
+    // The clean side a dataset stores: the photo unless the method asks for the balanced one,
+    // which is then recorded.
+    let side = Renderer::load(MethodSpec::Uwnr(UwnrSpec {
+        clean_side: CleanSide::Balanced,
+        ..UwnrSpec::default()
+    }))
+    .unwrap();
+    assert_eq!(side.settings_params().unwrap()["clean_side"], "balanced");
+    assert!(recorded.get("clean_side").is_none(), "{recorded}");
+
     // What the calibration measures from: the balanced photo for uwnr, the photo for the rest.
     let clean = Image::filled(32, 32, 3, 0.5);
     let balanced = bank.balanced(&clean).unwrap();
+    assert!(matches!(
+        bank.clean_side(&clean).unwrap(),
+        std::borrow::Cow::Borrowed(_)
+    ));
+    assert_eq!(*side.clean_side(&clean).unwrap(), *balanced);
     assert!(balanced.plane(0)[0] < 0.5 && balanced.plane(2)[0] > 0.5);
     assert!(matches!(
         none.balanced(&clean).unwrap(),
