@@ -213,9 +213,9 @@ pub struct UwnrSpec {
 #[serde(rename_all = "snake_case")]
 pub enum CleanSide {
     /// The photo as given.
-    #[default]
     Photo,
-    /// The photo at the method's clean balance.
+    /// The photo at the method's clean balance (with the bank's balance, the default: v8).
+    #[default]
     Balanced,
 }
 
@@ -239,7 +239,7 @@ impl Default for UwnrSpec {
             overlap: o.overlap,
             effects: WaterEffects::DEFAULT,
             balance: CleanBalance::BANK,
-            clean_side: CleanSide::Photo,
+            clean_side: CleanSide::Balanced,
         }
     }
 }

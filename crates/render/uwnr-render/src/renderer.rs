@@ -297,7 +297,8 @@ impl Renderer {
                 precision: n.precision,
                 effects: &n.effects,
                 balance: &n.balance,
-                clean_side: &n.clean_side,
+                clean_side: (!n.clean_side.is_photo() && !n.balance.is_none())
+                    .then_some(&n.clean_side),
             }),
             Imp::Uwgan(g) => serde_json::to_value(GanRecord {
                 weights: &g.weights,
@@ -616,9 +617,10 @@ struct NetworkRecord<'a> {
     /// The clean balance; absent when none (as in datasets made before it).
     #[serde(skip_serializing_if = "CleanBalance::is_none")]
     balance: &'a CleanBalance,
-    /// What the dataset stores as the clean side; absent for the photo as given.
-    #[serde(skip_serializing_if = "CleanSide::is_photo")]
-    clean_side: &'a CleanSide,
+    /// What the dataset stores as the clean side; absent when it is the photo as given (also
+    /// when there is no balance to store it at).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    clean_side: Option<&'a CleanSide>,
 }
 
 fn is_f32(p: &Precision) -> bool {

@@ -233,10 +233,12 @@ fn the_clean_balance_is_calibrated_from_recorded_and_refused_on_resume_when_chan
         eprintln!("skipped: this build has no bundled model (`cargo test --workspace` has it)");
         return;
     }
+    // The photo as the clean side first (the balanced one, the default, below).
     let uwnr = |balance: CleanBalance| {
         Renderer::load(MethodSpec::Uwnr(UwnrSpec {
             effects: uwnr_model::WaterEffects::NONE,
             balance,
+            clean_side: uwnr_render::CleanSide::Photo,
             ..UwnrSpec::default()
         }))
         .unwrap()
@@ -293,7 +295,6 @@ fn the_clean_balance_is_calibrated_from_recorded_and_refused_on_resume_when_chan
     let side = tmp.path().join("side");
     let balanced_side = Renderer::load(MethodSpec::Uwnr(UwnrSpec {
         effects: uwnr_model::WaterEffects::NONE,
-        clean_side: uwnr_render::CleanSide::Balanced,
         ..UwnrSpec::default()
     }))
     .unwrap();

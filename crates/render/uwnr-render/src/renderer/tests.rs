@@ -137,28 +137,36 @@ fn the_clean_balance_runs_before_the_water_and_is_recorded() {
     // and a resume across the two is refused (the records differ).
     let old = none.settings_params().unwrap();
     assert!(old.get("balance").is_none(), "{old}");
+    assert_eq!(
+        recorded["clean_side"], "balanced",
+        "the default: {recorded}"
+    );
     let mut stripped = recorded.clone();
     stripped.as_object_mut().unwrap().remove("balance");
+    stripped.as_object_mut().unwrap().remove("clean_side");
     assert_eq!(stripped, old, "nothing else differs");
 
-    // The clean side a dataset stores: the photo unless the method asks for the balanced one,
-    // which is then recorded.
-    let side = Renderer::load(MethodSpec::Uwnr(UwnrSpec {
-        clean_side: CleanSide::Balanced,
+    // The clean side a dataset stores: by default the balanced photo; the photo as given when
+    // the method asks for it, which is then not recorded (the old form).
+    let photo = Renderer::load(MethodSpec::Uwnr(UwnrSpec {
+        clean_side: CleanSide::Photo,
         ..UwnrSpec::default()
     }))
     .unwrap();
-    assert_eq!(side.settings_params().unwrap()["clean_side"], "balanced");
-    assert!(recorded.get("clean_side").is_none(), "{recorded}");
+    assert!(photo.settings_params().unwrap().get("clean_side").is_none());
 
     // What the calibration measures from: the balanced photo for uwnr, the photo for the rest.
     let clean = Image::filled(32, 32, 3, 0.5);
     let balanced = bank.balanced(&clean).unwrap();
     assert!(matches!(
-        bank.clean_side(&clean).unwrap(),
+        photo.clean_side(&clean).unwrap(),
         std::borrow::Cow::Borrowed(_)
     ));
-    assert_eq!(*side.clean_side(&clean).unwrap(), *balanced);
+    assert!(matches!(
+        none.clean_side(&clean).unwrap(),
+        std::borrow::Cow::Borrowed(_)
+    ));
+    assert_eq!(*bank.clean_side(&clean).unwrap(), *balanced);
     assert!(balanced.plane(0)[0] < 0.5 && balanced.plane(2)[0] > 0.5);
     assert!(matches!(
         none.balanced(&clean).unwrap(),
