@@ -12,7 +12,6 @@ The real set's features are cached as realism_probe.py caches them.
 """
 
 import argparse
-import hashlib
 import sys
 from pathlib import Path
 
@@ -21,7 +20,7 @@ from PIL import Image
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from fid_parity import fid_exact, kid_u_statistic, list_images  # noqa: E402
-from realism_probe import features  # noqa: E402
+from realism_probe import features, real_features  # noqa: E402
 
 
 def mean_rgb(files: list[Path]) -> np.ndarray:
@@ -40,17 +39,9 @@ def main() -> int:
 
     session = ort.InferenceSession(str(args.inception), providers=["CPUExecutionProvider"])
     plain = argparse.Namespace(blur=0.0, noise=0.0, jpeg=0)
-    real_files = list_images(args.real)
-    key = hashlib.sha256("\n".join(str(p) for p in real_files).encode()).hexdigest()[:16]
-    cache = args.cache.with_name(f"{args.cache.stem}-{key}.npy")
-    if cache.exists():
-        fr = np.load(cache)
-    else:
-        fr = features(session, real_files, plain)
-        cache.parent.mkdir(parents=True, exist_ok=True)
-        np.save(cache, fr)
+    fr = real_features(session, args.real, args.cache)
     mr = fr.mean(0)
-    rgb = mean_rgb(real_files)
+    rgb = mean_rgb(list_images(args.real))
     print(f"real\tn={len(fr)}\ttrace(C) {np.trace(np.cov(fr, rowvar=False)):.1f}\tmean RGB {np.round(rgb, 3).tolist()}")
     print("set\tFID\tmean term\tcovariance term\ttrace(C)\tKID x1000\tKID x1000, mean matched\tmean RGB")
     for spec in args.sets:

@@ -60,6 +60,20 @@ def features(session, files, args) -> np.ndarray:
     return np.concatenate(out)
 
 
+def real_features(session, real: Path, cache: Path) -> np.ndarray:
+    """The Inception features of the real set's images, cached beside `cache` under a key of
+    their paths."""
+    real_files = list_images(real)
+    key = hashlib.sha256("\n".join(str(p) for p in real_files).encode()).hexdigest()[:16]
+    cached = cache.with_name(f"{cache.stem}-{key}.npy")
+    if cached.exists():
+        return np.load(cached)
+    fr = features(session, real_files, argparse.Namespace(blur=0.0, noise=0.0, jpeg=0))
+    cached.parent.mkdir(parents=True, exist_ok=True)
+    np.save(cached, fr)
+    return fr
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--inception", type=Path, required=True)
@@ -74,16 +88,7 @@ def main() -> int:
     import onnxruntime as ort
 
     session = ort.InferenceSession(str(args.inception), providers=["CPUExecutionProvider"])
-    real_files = list_images(args.real)
-    key = hashlib.sha256("\n".join(str(p) for p in real_files).encode()).hexdigest()[:16]
-    cache = args.cache.with_name(f"{args.cache.stem}-{key}.npy")
-    if cache.exists():
-        fr = np.load(cache)
-    else:
-        plain = argparse.Namespace(blur=0.0, noise=0.0, jpeg=0)
-        fr = features(session, real_files, plain)
-        cache.parent.mkdir(parents=True, exist_ok=True)
-        np.save(cache, fr)
+    fr = real_features(session, args.real, args.cache)
     for d in args.dirs:
         f = features(session, list_images(d), args)
         print(f"{d}\tn={len(f)}\tFID {fid_exact(f, fr):.1f}\tKIDx1000 {1000 * kid_u_statistic(f, fr):.1f}", flush=True)
