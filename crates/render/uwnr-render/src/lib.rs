@@ -39,7 +39,7 @@ pub mod record;
 pub mod renderer;
 pub mod revised;
 
-pub use camera::Camera;
+pub use camera::{Camera, CleanCamera};
 pub use depth_policy::{
     DATASET_PRIOR_TRUST, DATASET_SCENE_SCALE_M, DepthPolicy, MAX_SCENE_SCALE_M,
 };

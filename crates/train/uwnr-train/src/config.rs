@@ -274,6 +274,12 @@ impl AdversarialConfig {
             if let Err(e) = st.camera.validate() {
                 return bad("adversarial.stages.camera", e.to_string());
             }
+            if !st.camera.clean.is_none() {
+                return bad(
+                    "adversarial.stages.camera",
+                    "clean acts on a dataset's stored clean side; training stores none".into(),
+                );
+            }
         }
         let seen = cfg.crop / self.downsample;
         if seen < self.discriminator.min_input() {
@@ -670,6 +676,20 @@ mod tests {
                     ..d
                 },
                 "adversarial.content",
+            ),
+            (
+                // No clean side is stored in training for the clean blur to act on.
+                AdversarialConfig {
+                    stages: Some(RenderStages {
+                        camera: uwnr_render::Camera {
+                            clean: uwnr_render::CleanCamera::Lens,
+                            ..uwnr_render::Camera::TYPICAL
+                        },
+                        ..RenderStages::default()
+                    }),
+                    ..d
+                },
+                "adversarial.stages.camera",
             ),
         ] {
             assert_eq!(field_of(with(a)), field);

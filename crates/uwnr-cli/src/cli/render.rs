@@ -203,7 +203,8 @@ pub struct DatasetMakeArgs {
     pub target: Option<PathBuf>,
     /// The camera stage every underwater render goes through, whatever the method: `typical`
     /// (0.8 px lens blur at 256 px, read and shot noise, JPEG at quality 70), `none`, or a JSON
-    /// object of blur, read_noise, shot_noise and jpeg_quality. Recorded in dataset.json.
+    /// object of blur, read_noise, shot_noise, jpeg_quality and clean (none, lens or camera: what the
+    /// camera does to the clean side; a real pair's clean side has it all). Recorded in dataset.json.
     #[arg(long, value_name = "none|typical|JSON", default_value = "typical", value_parser = parse_camera)]
     pub camera: uwnr_render::Camera,
     /// Output format: folders only, or folders then WebDataset tar shards.

@@ -317,6 +317,18 @@ impl Context<'_> {
                 .apply(&underwater, Camera::seed(seed))
                 .map_err(|e| e.to_string())?
         };
+        // The clean side through the camera as it says (a real pair's clean side is made from
+        // the photo the camera took), with the underwater side's noise draws.
+        let stored = if camera.touches_clean() {
+            Cow::Owned(
+                camera
+                    .clean_side(&stored, Camera::seed(seed))
+                    .map_err(|e| e.to_string())?
+                    .into_owned(),
+            )
+        } else {
+            stored
+        };
         let lf = reference.and_then(|(_, style)| style.light_field.as_ref());
         let name = format!("{id}.png");
         let write = |dir: &str, f: &dyn Fn(&Path) -> uwnr_core::Result<()>| {

@@ -226,6 +226,87 @@ fn the_camera_stage_is_applied_recorded_and_refused_on_resume_when_changed() {
 }
 
 #[test]
+fn the_camera_on_the_clean_side_is_applied_as_set_and_refused_on_resume_when_changed() {
+    use uwnr_render::CleanCamera;
+    let tmp = tempfile::tempdir().unwrap();
+    let (clean, refs) = inputs(tmp.path(), 3, 3);
+    let mut sp = spec(&clean, &refs, 1);
+    // The fixtures are about 20 px: the widest lens (sized at 256 px) gives them a sigma of
+    // about 0.8 px, what the typical camera gives a 256 px pair.
+    sp.camera = uwnr_render::Camera {
+        blur: 10.0,
+        ..uwnr_render::Camera::TYPICAL
+    };
+    let dir = |c: CleanCamera| tmp.path().join(format!("{c:?}"));
+    for (jobs, c) in [CleanCamera::None, CleanCamera::Lens, CleanCamera::Camera]
+        .into_iter()
+        .enumerate()
+    {
+        sp.camera.clean = c;
+        run(&dir(c), &sp, &reinhard(), &opts(1 + jobs % 2));
+    }
+    let read = |d: &std::path::Path| {
+        serde_json::from_slice::<serde_json::Value>(&std::fs::read(d.join("dataset.json")).unwrap())
+            .unwrap()
+    };
+    // Recorded when it does something (a record without it reads back as none).
+    assert!(
+        read(&dir(CleanCamera::None))["camera"]
+            .get("clean")
+            .is_none()
+    );
+    assert_eq!(read(&dir(CleanCamera::Lens))["camera"]["clean"], "lens");
+    assert_eq!(read(&dir(CleanCamera::Camera))["camera"]["clean"], "camera");
+    let limits = DecodeLimits::default();
+    let manifest = |c| {
+        read_manifest(&dir(c).join("manifest.jsonl"))
+            .unwrap()
+            .records
+    };
+    let plain = manifest(CleanCamera::None);
+    for c in [CleanCamera::Lens, CleanCamera::Camera] {
+        sp.camera.clean = c;
+        for ((_, r), (_, r2)) in plain.iter().zip(&manifest(c)) {
+            let load = |root: &std::path::Path, f: &str| load_rgb(&root.join(f), &limits).unwrap();
+            let (none, this) = (dir(CleanCamera::None), dir(c));
+            // The underwater sides are the same renders through the same camera.
+            let underwater = load(&this, &r2.underwater);
+            assert_eq!(load(&none, &r.underwater), underwater);
+            // The clean side is the clean clean side through the camera as set, with the
+            // underwater side's seed: for `camera`, exactly what the underwater side of the
+            // clean image would be.
+            let (c0, c2) = (load(&none, &r.clean), load(&this, &r2.clean));
+            assert_ne!(c0, c2, "{c:?}");
+            let seed = uwnr_render::Camera::seed(r2.seed);
+            assert_eq!(
+                c2,
+                sp.camera.clean_side(&c0, seed).unwrap().quantised(),
+                "{c:?}"
+            );
+            // The pair's strength is measured against the clean side as stored.
+            let stored = uwnr_model::water::pair_psnr(&underwater, &c2).unwrap();
+            assert!((r2.strength_db.unwrap() - stored).abs() < 1e-3, "{r2:?}");
+        }
+    }
+    // Resuming with another clean side is refused.
+    sp.camera.clean = CleanCamera::Lens;
+    let stop = AtomicBool::new(false);
+    let err = uwnr_dataset::generate(
+        &dir(CleanCamera::Camera),
+        &sp,
+        &reinhard(),
+        &opts(1),
+        &stop,
+        &mut |_| {},
+    )
+    .unwrap_err();
+    assert!(
+        matches!(&err, DatasetError::SettingsMismatch { field, .. } if field == "camera.clean"),
+        "{err}"
+    );
+}
+
+#[test]
 fn the_clean_balance_is_calibrated_from_recorded_and_refused_on_resume_when_changed() {
     use uwnr_model::water::{CleanBalance, pair_psnr};
     use uwnr_render::{MethodSpec, Renderer, UwnrSpec};
