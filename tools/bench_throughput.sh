@@ -8,7 +8,8 @@
 # (default 8: 192 pairs a run); references: U45 (references/u45). Run from the repository root on a quiet
 # machine with a release binary:
 #   cargo build --release -p uwnr-cli && bash tools/bench_throughput.sh
-# Settings: BIN (default target/release/uwnr), DATA, METHODS, SIZES, PER_IMAGE.
+# Settings: BIN (default target/release/uwnr), DATA, METHODS, SIZES, PER_IMAGE, CAMERA (`--camera`;
+# unset, the default).
 set -euo pipefail
 DATA=${DATA:-../shared/data}
 BIN=${BIN:-target/release/uwnr}
@@ -29,7 +30,7 @@ run() { # method, size, jobs, rayon threads -> "pairs/s peak-MiB"
     local out="$WORK/out-$method-$size-$jobs"
     RAYON_NUM_THREADS=$threads /usr/bin/time -f 'peak_kib=%M' -o "$WORK/time" \
         "$BIN" dataset --clean "$WORK/clean" --references "$REFS" --output "$out" \
-        --per-image "$PER_IMAGE" --size "$size" --method "$method" --jobs "$jobs" --no-gallery \
+        --per-image "$PER_IMAGE" --size "$size" --method "$method" --jobs "$jobs" --no-gallery ${CAMERA:+--camera "$CAMERA"} \
         >"$WORK/log" 2>&1 || { cat "$WORK/log" >&2; return 1; }
     local rate kib
     rate=$(grep '^dataset:' "$WORK/log" | sed -E 's/.*\(([0-9.]+) pairs\/s\).*/\1/')

@@ -4,6 +4,7 @@
 # images of inair/cbsd68 and inair/set14, 2 renders each at 256x256, seed 0, with the RUIE and
 # U45 references (REFS=ruie) or UIEB's challenging photos (REFS=uieb). Real pairs for
 # comparison: `uwnr water fit` prints their strengths.
+# CAMERA sets `--camera` (e.g. '{"clean":"none"}'); unset, `uwnr dataset`'s default.
 # Run from the repository root: bash tools/strength_table.sh [BIN]   (PYTHON: with numpy, Pillow)
 set -euo pipefail
 BIN=${1:-${BIN:-target/release/uwnr}}
@@ -23,7 +24,7 @@ for m in $METHODS; do
   W=()
   [ "$m" = uwnr ] && [ -n "${WEIGHTS:-}" ] && W=(--weights "$WEIGHTS")
   line=$("$BIN" dataset --clean "$DATA/inair/cbsd68" "$DATA/inair/set14" --references "${R[@]}" \
-    -k 2 --size 256x256 --seed 0 --method "$m" "${W[@]}" --no-gallery -o "$dir" 2>&1 | grep '^strength' || true)
+    -k 2 --size 256x256 --seed 0 --method "$m" "${W[@]}" ${CAMERA:+--camera "$CAMERA"} --no-gallery -o "$dir" 2>&1 | grep '^strength' || true)
   cast=$("$PYTHON" tools/pair_cast.py "$dir" | cut -f3-)
   printf '%s\t%s\t%s\n' "$name" "${line#strength PSNR(underwater, clean) over }" "$cast"
 done
