@@ -14,6 +14,11 @@ For every pair (a folder with `underwater/` and `clean/`, same names; a `uwnr da
 Images are read at a 256 px shorter side (as the downstream training sees them). Prints the mean
 and the 10th and 90th percentiles of each figure per set.
 
+A DIR without `underwater/` and `clean/` is a folder of single images (real photos, or a
+dataset's `underwater/` side): its rows give the images' own sharpness and noise, not a ratio.
+That is how the default camera stage was matched to real photos (`docs/RESULTS.md`, "The matched
+camera").
+
 Usage: python3 tools/pair_detail.py NAME=DIR [NAME=DIR ...] [--limit N]   (numpy, scipy, Pillow)
 """
 import argparse
@@ -51,6 +56,11 @@ def noise(y):
     return np.sqrt(np.pi / 2) * np.abs(r).mean() / 6.0
 
 
+def f(v):
+    v = np.asarray(v)
+    return f"{v.mean():.3f} ({np.percentile(v, 10):.3f}, {np.percentile(v, 90):.3f})"
+
+
 def pairs(root):
     root = Path(root)
     uw = {p.stem: p for p in (root / "underwater").iterdir() if p.suffix.lower() in EXTS}
@@ -71,7 +81,10 @@ def main():
     print("| set | pairs | sharpness, underwater / clean (mean, p10, p90) "
           "| noise, underwater (levels) | noise, clean |")
     print("|---|---:|---|---|---|")
+    singles = [s for s in a.sets if not (Path(s.split("=", 1)[1]) / "underwater").is_dir()]
     for spec in a.sets:
+        if spec in singles:
+            continue
         name, d = spec.split("=", 1)
         ps = list(pairs(d))
         if len(ps) > a.limit:
@@ -86,11 +99,25 @@ def main():
         r = np.array(ratio)
         r = r[np.isfinite(r)]
 
-        def f(v):
-            v = np.asarray(v)
-            return f"{v.mean():.3f} ({np.percentile(v, 10):.3f}, {np.percentile(v, 90):.3f})"
-
         print(f"| {name} | {len(ps)} | {f(r)} | {f(nu)} | {f(nc)} |")
+    if singles:
+        print()
+        print("| images | count | sharpness (mean, p10, p90) | noise (levels) |")
+        print("|---|---:|---|---|")
+    for spec in singles:
+        name, d = spec.split("=", 1)
+        fs = sorted(p for p in Path(d).iterdir() if p.suffix.lower() in EXTS)
+        if len(fs) > a.limit:
+            idx = np.linspace(0, len(fs) - 1, a.limit).round().astype(int)
+            fs = [fs[i] for i in idx]
+        s, n = [], []
+        for p in fs:
+            y = luminance(p)
+            s.append(sharpness(y))
+            n.append(noise(y))
+        s = np.array(s)
+        s = s[np.isfinite(s)]
+        print(f"| {name} | {len(fs)} | {f(s)} | {f(n)} |")
 
 
 if __name__ == "__main__":

@@ -29,8 +29,9 @@
 #   seed (each Inception pass over 800 images takes minutes on 2 cores).
 #
 # - Every method's renders go through the camera stage of `uwnr dataset` ($CAMERA, default
-#   `typical`: lens blur, sensor noise, JPEG), so that methods meet the real photos on equal
-#   terms; the clean side and the real photos are not touched.
+#   `matched`: lens blur, sensor noise, JPEG; docs/RESULTS.md's earlier tables used `typical`),
+#   so that methods meet the real photos on equal terms; the clean side and the real photos are
+#   not touched.
 #
 # Environment: UWNR_BIN (default target/release/uwnr), REFERENCES, CLEAN, SEEDS (default
 # "0 1 2"), METHODS (default every method of `uwnr dataset --method` but haze; scored in this
@@ -53,7 +54,7 @@ REFERENCES=${REFERENCES:-../shared/data/references}
 CLEAN=${CLEAN:-../shared/data/inair}
 SEEDS=${SEEDS:-"0 1 2"}
 METHODS=${METHODS:-"uwnr uwgan seathru revised uisa reinhard jerlov"}
-CAMERA=${CAMERA:-typical}
+CAMERA=${CAMERA:-matched}
 SIZE=256x256
 JOBS_ARG=()
 [[ -n "${JOBS:-}" ]] && JOBS_ARG=(-j "$JOBS")

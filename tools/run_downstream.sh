@@ -36,8 +36,8 @@ WEIGHTS=${WEIGHTS-}
 # METHOD_CONFIG renders the uwnr set with a method spec (`--method-config`), e.g. another model's
 # effects with an earlier build (docs/results/model-v7-downstream.md).
 METHOD_CONFIG=${METHOD_CONFIG-}
-# CAMERA sets the camera stage of every training set (`--camera`: none, typical or a JSON object);
-# unset, `uwnr experiment downstream`'s default (typical).
+# CAMERA sets the camera stage of every training set (`--camera`: none, matched, typical or JSON);
+# unset, `uwnr experiment downstream`'s default (matched).
 CAMERA=${CAMERA-}
 SPLITS=${SPLITS:-../uwnr-splits}
 [ -d "$SPLITS/lsui-test" ] || bash tools/lsui_split.sh "$SPLITS" >/dev/null

@@ -201,11 +201,13 @@ pub struct DatasetMakeArgs {
     /// LSUI training pairs the bundled water bank was fitted on. Needs a water-anchored model.
     #[arg(long, value_name = "DIR")]
     pub target: Option<PathBuf>,
-    /// The camera stage every underwater render goes through, whatever the method: `typical`
-    /// (0.8 px lens blur at 256 px, read and shot noise, JPEG at quality 70), `none`, or a JSON
-    /// object of blur, read_noise, shot_noise, jpeg_quality and clean (none, lens or camera: what the
-    /// camera does to the clean side; a real pair's clean side has it all). Recorded in dataset.json.
-    #[arg(long, value_name = "none|typical|JSON", default_value = "typical", value_parser = parse_camera)]
+    /// The camera stage every underwater render goes through, whatever the method: `matched`
+    /// (the fine detail and noise of real underwater photos: 0.4 px lens blur at 256 px, read and
+    /// shot noise, JPEG at quality 80), `typical` (a heavier camera: 0.8 px, JPEG at 70), `none`,
+    /// or a JSON object of blur, read_noise, shot_noise, jpeg_quality and clean (none, lens or
+    /// camera: what the camera does to the clean side; a real pair's clean side has it all; missing
+    /// fields take `matched`'s values). Recorded in dataset.json.
+    #[arg(long, value_name = "none|matched|typical|JSON", default_value = "matched", value_parser = parse_camera)]
     pub camera: uwnr_render::Camera,
     /// Output format: folders only, or folders then WebDataset tar shards.
     #[arg(long, value_enum, default_value_t = DatasetFormat::Folder)]

@@ -114,9 +114,9 @@ pub struct DownstreamArgs {
     #[arg(long, value_name = "DIR")]
     pub target: Option<PathBuf>,
     /// The camera stage every method's renders go through (as `uwnr dataset --camera`):
-    /// `typical`, `none`, or a JSON object of blur, read_noise, shot_noise, jpeg_quality and
-    /// clean.
-    #[arg(long, value_name = "none|typical|JSON", default_value = "typical", value_parser = super::render::parse_camera)]
+    /// `matched`, `typical`, `none`, or a JSON object of blur, read_noise, shot_noise,
+    /// jpeg_quality and clean.
+    #[arg(long, value_name = "none|matched|typical|JSON", default_value = "matched", value_parser = super::render::parse_camera)]
     pub camera: uwnr_render::Camera,
     #[command(flatten)]
     pub baseline: BaselineOpts,

@@ -259,9 +259,9 @@ fn a_target_calibrates_the_water_anchored_set_only() {
     assert_eq!(uwnr_set["target"]["pairs"], 2, "{uwnr_set}");
     let reinhard_set = settings("reinhard");
     assert!(reinhard_set["target"].is_null(), "{reinhard_set}");
-    // Without --camera every set goes through the typical camera, as `uwnr dataset`'s do.
+    // Without --camera every set goes through the matched camera, as `uwnr dataset`'s do.
     for set in [&uwnr_set, &reinhard_set] {
-        assert_eq!(set["camera"]["jpeg_quality"], 70, "{set}");
+        assert_eq!(set["camera"]["jpeg_quality"], 80, "{set}");
     }
 }
 
