@@ -17,13 +17,14 @@
 //! draws (`camera`). A real pair's clean side is made from the photo the camera took, so it keeps
 //! the lens's point spread, the sensor's noise and the codec's blocks (measured by
 //! `tools/pair_detail.py`: the finest detail band of real pairs' underwater sides is 0.99-1.05
-//! times their clean sides', that of pairs with a clean clean side 0.62, and real clean sides are
-//! as noisy as their underwater sides or more).
+//! times their clean sides', that of pairs with a clean clean side 0.62 with the typical camera
+//! and 0.90 with the matched one, and real clean sides are as noisy as their underwater sides or
+//! more).
 //!
 //! The default is [`Camera::MATCHED`]: the settings, of six tried, whose renders have the fine
 //! detail and the noise of real underwater photos at the same size (half A of the realism
-//! protocol, `docs/RESULTS.md`: finest band over middle band 0.721 against the photos' 0.732,
-//! noise 1.29 levels against 1.28). [`Camera::TYPICAL`], the default before it, blurs renders
+//! protocol, `docs/RESULTS.md`: finest band over middle band 0.721 against the photos' 0.722,
+//! noise 1.29 levels against 1.30). [`Camera::TYPICAL`], the default before it, blurs renders
 //! well past real photos (0.485) and teaches an enhancer trained on the pairs to sharpen what real
 //! test pairs do not ask for. [`Camera::NONE`] leaves renders as the method made them.
 
