@@ -61,6 +61,13 @@ def f(v):
     return f"{v.mean():.3f} ({np.percentile(v, 10):.3f}, {np.percentile(v, 90):.3f})"
 
 
+def evenly(items, limit):
+    """At most `limit` of `items`, evenly spaced over the list."""
+    if len(items) <= limit:
+        return items
+    return [items[i] for i in np.linspace(0, len(items) - 1, limit).round().astype(int)]
+
+
 def pairs(root):
     root = Path(root)
     uw = {p.stem: p for p in (root / "underwater").iterdir() if p.suffix.lower() in EXTS}
@@ -78,18 +85,15 @@ def main():
     ap.add_argument("sets", nargs="+")
     ap.add_argument("--limit", type=int, default=400)
     a = ap.parse_args()
-    print("| set | pairs | sharpness, underwater / clean (mean, p10, p90) "
-          "| noise, underwater (levels) | noise, clean |")
-    print("|---|---:|---|---|---|")
-    singles = [s for s in a.sets if not (Path(s.split("=", 1)[1]) / "underwater").is_dir()]
-    for spec in a.sets:
-        if spec in singles:
-            continue
-        name, d = spec.split("=", 1)
-        ps = list(pairs(d))
-        if len(ps) > a.limit:
-            idx = np.linspace(0, len(ps) - 1, a.limit).round().astype(int)
-            ps = [ps[i] for i in idx]
+    sets = [spec.split("=", 1) for spec in a.sets]
+    paired = [(n, d) for n, d in sets if (Path(d) / "underwater").is_dir()]
+    singles = [(n, d) for n, d in sets if not (Path(d) / "underwater").is_dir()]
+    if paired:
+        print("| set | pairs | sharpness, underwater / clean (mean, p10, p90) "
+              "| noise, underwater (levels) | noise, clean |")
+        print("|---|---:|---|---|---|")
+    for name, d in paired:
+        ps = evenly(list(pairs(d)), a.limit)
         ratio, nu, nc = [], [], []
         for u, c in ps:
             yu, yc = luminance(u), luminance(c)
@@ -97,28 +101,21 @@ def main():
             nu.append(noise(yu))
             nc.append(noise(yc))
         r = np.array(ratio)
-        r = r[np.isfinite(r)]
-
-        print(f"| {name} | {len(ps)} | {f(r)} | {f(nu)} | {f(nc)} |")
+        print(f"| {name} | {len(ps)} | {f(r[np.isfinite(r)])} | {f(nu)} | {f(nc)} |")
     if singles:
-        print()
+        if paired:
+            print()
         print("| images | count | sharpness (mean, p10, p90) | noise (levels) |")
         print("|---|---:|---|---|")
-    for spec in singles:
-        name, d = spec.split("=", 1)
-        fs = sorted(p for p in Path(d).iterdir() if p.suffix.lower() in EXTS)
-        if len(fs) > a.limit:
-            idx = np.linspace(0, len(fs) - 1, a.limit).round().astype(int)
-            fs = [fs[i] for i in idx]
-        s, n = [], []
+    for name, d in singles:
+        fs = evenly(sorted(p for p in Path(d).iterdir() if p.suffix.lower() in EXTS), a.limit)
+        sh, nz = [], []
         for p in fs:
             y = luminance(p)
-            s.append(sharpness(y))
-            n.append(noise(y))
-        s = np.array(s)
-        s = s[np.isfinite(s)]
-        print(f"| {name} | {len(fs)} | {f(s)} | {f(n)} |")
-
+            sh.append(sharpness(y))
+            nz.append(noise(y))
+        sh = np.array(sh)
+        print(f"| {name} | {len(fs)} | {f(sh[np.isfinite(sh)])} | {f(nz)} |")
 
 if __name__ == "__main__":
     main()
