@@ -64,8 +64,12 @@ impl NativeReference {
     }
 
     /// What a model with `config` takes of this reference (the light field only when its
-    /// renders read one).
-    fn style(&self, config: &GeneratorConfig) -> Result<ReferenceStyle, Failure> {
+    /// renders read one; the chromaticity only when the clean balance follows the water).
+    fn style(
+        &self,
+        config: &GeneratorConfig,
+        chromaticity: bool,
+    ) -> Result<ReferenceStyle, Failure> {
         let light_field = if config.reads_light_field() {
             Some(self.field(config.light_field)?.clone())
         } else {
@@ -91,7 +95,13 @@ impl NativeReference {
                 Some(water)
             }
         };
-        Ok(ReferenceStyle { light_field, water })
+        Ok(ReferenceStyle {
+            light_field,
+            water,
+            chromaticity: chromaticity
+                .then(|| uwnr_model::water::chromaticity(&self.image))
+                .flatten(),
+        })
     }
 }
 
@@ -201,7 +211,9 @@ impl NativeRenderer {
         // renderer may take, so its light fields are shared between networks), the baselines
         // its pixels.
         let style = match (job.reference, self.renderer.generator_config()) {
-            (Some(r), Some(config)) => Some(r.style(config)?),
+            (Some(r), Some(config)) => {
+                Some(r.style(config, self.renderer.balance_follows_water())?)
+            }
             _ => None,
         };
         let input = job.reference.map(|r| ReferenceInput {

@@ -201,6 +201,11 @@ pub struct UwnrSpec {
     /// of the real pairs' clean sides the waters were fitted from
     /// (`uwnr_model::water::CleanBalance`); `[1, 1, 1]` for none. The bank's unless set.
     pub balance: CleanBalance,
+    /// The share of its water's cast a real clean side keeps: the balance follows each
+    /// reference's chromaticity by this much (`uwnr_model::water::CleanBalance::following`);
+    /// 0 for the fixed balance (v8), the default; the bank's fitted share is
+    /// `uwnr_model::water::BANK_WATER_SHARE` (0.325).
+    pub balance_water_share: f32,
     /// What a dataset stores as a pair's clean side: the photo as given, or the photo at the
     /// clean balance (the white point real pairs' clean sides have, so that a pair is made as a
     /// real pair is: the underwater side and a clean side at that white point, at the strength
@@ -239,6 +244,7 @@ impl Default for UwnrSpec {
             overlap: o.overlap,
             effects: WaterEffects::DEFAULT,
             balance: CleanBalance::BANK,
+            balance_water_share: 0.0,
             clean_side: CleanSide::Balanced,
         }
     }
@@ -454,6 +460,12 @@ impl MethodSpec {
                     .and_then(|()| s.effects.validate())
                     .and_then(|()| s.balance.validate())
                     .map_err(|e| RenderError::Invalid(e.to_string()))?;
+                if !(0.0..=1.0).contains(&s.balance_water_share) {
+                    return Err(RenderError::Invalid(format!(
+                        "balance_water_share {} must be within [0, 1]",
+                        s.balance_water_share
+                    )));
+                }
                 Ok(())
             }
             Self::Haze(p) => p.validate(),

@@ -38,8 +38,21 @@ struct Network {
     effects: WaterEffects,
     /// The clean photo's gains before the water (`uwnr_model::water::CleanBalance`).
     balance: CleanBalance,
+    /// How far the balance follows each reference's water (0: not at all).
+    balance_water_share: f32,
     /// What a dataset stores as a pair's clean side.
     clean_side: CleanSide,
+}
+
+impl Network {
+    /// The clean balance for a render after `style` (its chromaticity, when the balance
+    /// follows the water).
+    fn balance_for(&self, style: Option<&ReferenceStyle>) -> CleanBalance {
+        match style.and_then(|s| s.chromaticity) {
+            Some(chroma) => self.balance.following(self.balance_water_share, chroma),
+            None => self.balance,
+        }
+    }
 }
 
 /// The GAN baseline's generator, loaded.
@@ -176,6 +189,7 @@ impl Renderer {
             overlap: options.overlap,
             effects: WaterEffects::NONE,
             balance: CleanBalance::NONE,
+            balance_water_share: 0.0,
             ..UwnrSpec::default()
         });
         Self {
@@ -189,6 +203,7 @@ impl Renderer {
                 precision,
                 effects: WaterEffects::NONE,
                 balance: CleanBalance::NONE,
+                balance_water_share: 0.0,
                 clean_side: CleanSide::Photo,
             })),
             without_reference: None,
@@ -263,13 +278,25 @@ impl Renderer {
         }
     }
 
+    /// Whether the clean balance follows each reference's water (the uwnr method with a
+    /// `balance_water_share`): its [`ReferenceStyle`] then carries the reference's chromaticity.
+    #[must_use]
+    pub fn balance_follows_water(&self) -> bool {
+        matches!(&self.imp, Imp::Uwnr(n) if n.balance_water_share != 0.0)
+    }
+
     /// `clean` as the method's water starts from it: for the uwnr method at its clean balance
-    /// (`uwnr_model::water::CleanBalance`), against which a calibrated water's strength is
-    /// measured; `clean` itself for the others.
-    pub fn balanced<'a>(&self, clean: &'a Image) -> Result<std::borrow::Cow<'a, Image>> {
+    /// (`uwnr_model::water::CleanBalance`) for the reference of `style` (its
+    /// [`Renderer::reference_style`]; the fixed balance without one), against which a calibrated
+    /// water's strength is measured; `clean` itself for the others.
+    pub fn balanced<'a>(
+        &self,
+        clean: &'a Image,
+        style: Option<&ReferenceStyle>,
+    ) -> Result<std::borrow::Cow<'a, Image>> {
         match &self.imp {
             Imp::Uwnr(n) => n
-                .balance
+                .balance_for(style)
                 .apply(clean)
                 .map_err(|e| failed("balancing the clean photo", e)),
             _ => Ok(std::borrow::Cow::Borrowed(clean)),
@@ -277,10 +304,15 @@ impl Renderer {
     }
 
     /// What a dataset stores as the clean side of a pair made from `clean`: the photo at the
-    /// clean balance when the uwnr method's `clean_side` says so, `clean` itself otherwise.
-    pub fn clean_side<'a>(&self, clean: &'a Image) -> Result<std::borrow::Cow<'a, Image>> {
+    /// clean balance (for the reference of `style`) when the uwnr method's `clean_side` says so,
+    /// `clean` itself otherwise.
+    pub fn clean_side<'a>(
+        &self,
+        clean: &'a Image,
+        style: Option<&ReferenceStyle>,
+    ) -> Result<std::borrow::Cow<'a, Image>> {
         match &self.imp {
-            Imp::Uwnr(n) if n.clean_side == CleanSide::Balanced => self.balanced(clean),
+            Imp::Uwnr(n) if n.clean_side == CleanSide::Balanced => self.balanced(clean, style),
             _ => Ok(std::borrow::Cow::Borrowed(clean)),
         }
     }
@@ -297,6 +329,7 @@ impl Renderer {
                 precision: n.precision,
                 effects: &n.effects,
                 balance: &n.balance,
+                balance_water_share: n.balance_water_share,
                 clean_side: (!n.clean_side.is_photo() && !n.balance.is_none())
                     .then_some(&n.clean_side),
             }),
@@ -318,6 +351,9 @@ impl Renderer {
     pub fn reference_style(&self, img: &Image, keep_light_field: bool) -> Result<ReferenceStyle> {
         match &self.imp {
             Imp::Uwnr(n) => ReferenceStyle::new(img, &n.config).and_then(|mut style| {
+                if self.balance_follows_water() {
+                    style.chromaticity = uwnr_model::water::chromaticity(img);
+                }
                 if keep_light_field && style.light_field.is_none() {
                     style.light_field = Some(uwnr_core::lightfield::light_field_with(
                         img,
@@ -332,6 +368,7 @@ impl Renderer {
             _ => Ok(ReferenceStyle {
                 light_field: None,
                 water: None,
+                chromaticity: None,
             }),
         }
         .map_err(|e| failed("style of the reference", e))
@@ -425,7 +462,7 @@ impl Worker<'_> {
                     ..net.options
                 };
                 let balanced = net
-                    .balance
+                    .balance_for(Some(style))
                     .apply(clean)
                     .map_err(|e| failed("balancing the clean photo", e))?;
                 let mut image = generator
@@ -582,6 +619,12 @@ fn load_network(s: &UwnrSpec) -> Result<Network> {
         precision: s.precision,
         effects: s.effects,
         balance: s.balance,
+        // A balance of none follows nothing (it renders v7's pairs bit for bit).
+        balance_water_share: if s.balance.is_none() {
+            0.0
+        } else {
+            s.balance_water_share
+        },
         clean_side: s.clean_side,
     })
 }
@@ -617,10 +660,18 @@ struct NetworkRecord<'a> {
     /// The clean balance; absent when none (as in datasets made before it).
     #[serde(skip_serializing_if = "CleanBalance::is_none")]
     balance: &'a CleanBalance,
+    /// How far the balance follows each reference's water; absent when not at all (as in
+    /// datasets made before it).
+    #[serde(skip_serializing_if = "is_zero")]
+    balance_water_share: f32,
     /// What the dataset stores as the clean side; absent when it is the photo as given (also
     /// when there is no balance to store it at).
     #[serde(skip_serializing_if = "Option::is_none")]
     clean_side: Option<&'a CleanSide>,
+}
+
+fn is_zero(v: &f32) -> bool {
+    *v == 0.0
 }
 
 fn is_f32(p: &Precision) -> bool {

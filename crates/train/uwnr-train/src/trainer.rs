@@ -234,6 +234,7 @@ fn reference_style(cfg: &TrainConfig, v: &ValPair) -> Result<ReferenceStyle> {
     Ok(ReferenceStyle {
         light_field: Some(light_field),
         water,
+        chromaticity: None,
     })
 }
 

@@ -93,15 +93,24 @@ fn describe_bundled(config: &GeneratorConfig) -> Result<ExitCode> {
         return Ok(ExitCode::SUCCESS);
     }
     println!("correction:  none: no network is loaded or run, no light field is computed");
+    let spec = uwnr_render::UwnrSpec::default();
+    let follows = if spec.balance_water_share == 0.0 {
+        String::new()
+    } else {
+        format!(
+            ", following each reference's water by {} of its cast as real clean sides do",
+            spec.balance_water_share
+        )
+    };
     println!(
         "renders:     the photo brought to the white point of the real pairs' clean sides (the \
-         clean balance, R G B x {:?}); the reference's water (gain and offset per channel, read \
+         clean balance, R G B x {:?}{follows}); the reference's water (gain and offset per channel, read \
          off its statistics by the bundled water bank's linear regressor) on the photo's own \
          colours{}; the depth \
          stage (farther is hazier); the effects (particles, light from above, colours the water \
          removes, forward scattering that widens with distance; a medium and a vignette are \
          off; `--method-config` sets them)",
-        uwnr_model::water::CleanBalance::BANK.0,
+        spec.balance.0,
         if config.detail_retention {
             ", with the reference's share of fine detail"
         } else {

@@ -246,9 +246,16 @@ impl Context<'_> {
         // scale corrected on the render itself until its strength is the target's, measured
         // from the clean photo at the method's clean balance (the white point real pairs'
         // strengths are measured from; `uwnr_model::water::CleanBalance`).
-        let balanced = self.renderer.balanced(clean).map_err(|e| e.to_string())?;
+        let style = reference.map(|(_, style)| style.as_ref());
+        let balanced = self
+            .renderer
+            .balanced(clean, style)
+            .map_err(|e| e.to_string())?;
         // The pair's clean side: the photo, or the balanced photo when the method says so.
-        let stored = self.renderer.clean_side(clean).map_err(|e| e.to_string())?;
+        let stored = self
+            .renderer
+            .clean_side(clean, style)
+            .map_err(|e| e.to_string())?;
         let mut calibration = match (self.calibration, reference) {
             (Some(target), Some((_, style))) => match style.water.as_ref() {
                 Some(water) => Some(

@@ -419,3 +419,77 @@ fn the_clean_balance_is_calibrated_from_recorded_and_refused_on_resume_when_chan
         "{err}"
     );
 }
+
+#[test]
+fn a_clean_balance_following_the_water_is_stored_recorded_and_refused_on_resume_when_changed() {
+    use uwnr_model::water::{BANK_WATER_SHARE, CleanBalance, chromaticity};
+    use uwnr_render::{MethodSpec, Renderer, UwnrSpec};
+    if uwnr_model::bundled_model_bytes().is_none() {
+        eprintln!("skipped: this build has no bundled model (`cargo test --workspace` has it)");
+        return;
+    }
+    let load = |share: f32, clean_side| {
+        Renderer::load(MethodSpec::Uwnr(UwnrSpec {
+            effects: uwnr_model::WaterEffects::NONE,
+            balance_water_share: share,
+            clean_side,
+            ..UwnrSpec::default()
+        }))
+        .unwrap()
+    };
+    let uwnr = |share: f32| load(share, uwnr_render::CleanSide::Balanced);
+    let tmp = tempfile::tempdir().unwrap();
+    let (clean, refs) = inputs(tmp.path(), 3, 3);
+    let mut sp = spec(&clean, &refs, 3);
+    sp.target = Some(uwnr_dataset::WaterTarget::bundled().unwrap());
+    let out = tmp.path().join("follows");
+    run(&out, &sp, &uwnr(BANK_WATER_SHARE), &opts(2));
+    // The same pairs with the photo stored as the clean side.
+    let photos = tmp.path().join("photos");
+    run(
+        &photos,
+        &sp,
+        &load(BANK_WATER_SHARE, uwnr_render::CleanSide::Photo),
+        &opts(1),
+    );
+    let settings: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("dataset.json")).unwrap()).unwrap();
+    assert_eq!(
+        settings["method_params"]["balance_water_share"],
+        serde_json::json!(BANK_WATER_SHARE),
+        "{settings}"
+    );
+    // Each pair's clean side is the photo at the balance its own reference's water gives.
+    let limits = DecodeLimits::default();
+    let m = read_manifest(&out.join("manifest.jsonl")).unwrap();
+    let mut balances = Vec::new();
+    for (_, r) in &m.records {
+        let reference = load_rgb(
+            std::path::Path::new(r.reference_source.as_deref().unwrap()),
+            &limits,
+        )
+        .unwrap();
+        let balance =
+            CleanBalance::BANK.following(BANK_WATER_SHARE, chromaticity(&reference).unwrap());
+        let photo = load_rgb(&photos.join(&r.clean), &limits).unwrap();
+        assert_eq!(
+            load_rgb(&photos.join(&r.underwater), &limits).unwrap(),
+            load_rgb(&out.join(&r.underwater), &limits).unwrap()
+        );
+        let stored = load_rgb(&out.join(&r.clean), &limits).unwrap();
+        assert_eq!(stored, balance.apply(&photo).unwrap().quantised());
+        balances.push(balance);
+    }
+    assert!(
+        balances.iter().any(|b| *b != balances[0]),
+        "the references differ, so do their balances: {balances:?}"
+    );
+    // The fixed balance is another dataset: refused on resume, naming the field.
+    let stop = AtomicBool::new(false);
+    let err =
+        uwnr_dataset::generate(&out, &sp, &uwnr(0.0), &opts(1), &stop, &mut |_| {}).unwrap_err();
+    assert!(
+        matches!(&err, DatasetError::SettingsMismatch { field, .. } if field.contains("balance_water_share")),
+        "{err}"
+    );
+}

@@ -277,6 +277,10 @@ pub struct ReferenceStyle {
     pub light_field: Option<Image>,
     /// The water, for the anchored variant.
     pub water: Option<Water>,
+    /// The reference's chromaticity ([`crate::water::chromaticity`]), for a clean balance that
+    /// follows the water ([`crate::water::CleanBalance::following`]); `None` when the renders
+    /// read none.
+    pub chromaticity: Option<[f32; 3]>,
 }
 
 impl ReferenceStyle {
@@ -297,7 +301,11 @@ impl ReferenceStyle {
                 config.detail_retention,
             )?),
         };
-        Ok(Self { light_field, water })
+        Ok(Self {
+            light_field,
+            water,
+            chromaticity: None,
+        })
     }
 
     /// A style given by a light-field map alone (enough for the paper's variant).
@@ -306,6 +314,7 @@ impl ReferenceStyle {
         Self {
             light_field: Some(light_field),
             water: None,
+            chromaticity: None,
         }
     }
 }

@@ -10,6 +10,15 @@
 //! of the two chromaticities ([`CleanBalance::BANK`], `tools/clean_balance.py`), a fixed white
 //! balance that keeps the mean brightness; the photo's own colours are kept around it.
 //!
+//! The white point of a real clean side also follows its own water: enhancement leaves a share
+//! of *that* water's cast. Over the bank's 160 pairs, a clean side's chromaticity minus the
+//! bank's mean is [`BANK_WATER_SHARE`] (0.325) times its underwater side's minus theirs (least
+//! squares over the three channels; 0.359 fitted on `uieb-train` alone, 0.334 on LSUI's
+//! training part alone, and each lowers the other's residual, by 11 and 26 %). With a share,
+//! the balance of a render follows its reference ([`CleanBalance::following`]): a green
+//! reference's clean side is a little greener than the bank's mean, a blue one's bluer.
+//! (`tools/clean_balance.py --bank-underwater` fits it.)
+//!
 //! The strength of a pair is then what real pairs measure, the distance of the underwater side
 //! from a clean side at that white point: `uwnr dataset` calibrates the water against the
 //! balanced photo, and records the pair's strength against the photo itself, which the pair
@@ -31,6 +40,29 @@ impl Default for CleanBalance {
     }
 }
 
+/// Mean chromaticity (each channel's share of R + G + B, per image, then averaged) of the
+/// bank's clean sides, 160 pairs at 128 x 128 px (`tools/clean_balance.py --bank-underwater`).
+pub const BANK_CLEAN_CHROMATICITY: [f32; 3] = [0.3064, 0.3480, 0.3457];
+/// The same of the bank's underwater sides.
+pub const BANK_UNDERWATER_CHROMATICITY: [f32; 3] = [0.2232, 0.4215, 0.3553];
+/// The share of its water's cast a real clean side keeps (module doc).
+pub const BANK_WATER_SHARE: f32 = 0.325;
+
+/// Each channel's share of R + G + B of `img`'s mean colour (RGB); `None` for a black or
+/// non-RGB image.
+#[must_use]
+pub fn chromaticity(img: &Image) -> Option<[f32; 3]> {
+    if img.channels() != 3 {
+        return None;
+    }
+    let m: [f64; 3] = std::array::from_fn(|c| {
+        let p = img.plane(c);
+        p.iter().map(|&v| f64::from(v)).sum::<f64>() / p.len().max(1) as f64
+    });
+    let sum = m.iter().sum::<f64>();
+    (sum > 1e-6).then(|| m.map(|v| (v / sum) as f32))
+}
+
 /// Range of a balance gain.
 pub const BALANCE_RANGE: (f32, f32) = (0.5, 2.0);
 
@@ -46,6 +78,23 @@ impl CleanBalance {
     #[must_use]
     pub fn is_none(&self) -> bool {
         *self == Self::NONE
+    }
+
+    /// The balance for a water whose underwater photo has chromaticity `water` (RGB shares):
+    /// each gain moved by `share` of the photo's departure from the bank's underwater mean,
+    /// relative to the bank's clean mean (module doc), clamped to [`BALANCE_RANGE`]. The
+    /// balance itself when `share` is 0; at the bank's mean water, the balance itself.
+    #[must_use]
+    pub fn following(&self, share: f32, water: [f32; 3]) -> Self {
+        if share == 0.0 {
+            return *self;
+        }
+        let (lo, hi) = BALANCE_RANGE;
+        Self(std::array::from_fn(|c| {
+            let moved =
+                share * (water[c] - BANK_UNDERWATER_CHROMATICITY[c]) / BANK_CLEAN_CHROMATICITY[c];
+            (self.0[c] * (1.0 + moved)).clamp(lo, hi)
+        }))
     }
 
     /// Checks the gains: finite, within [`BALANCE_RANGE`].
@@ -112,6 +161,41 @@ mod tests {
             CleanBalance::NONE.apply(&grey).unwrap(),
             std::borrow::Cow::Borrowed(_)
         ));
+    }
+
+    #[test]
+    fn a_balance_following_its_water_keeps_a_share_of_the_cast() {
+        let bank = CleanBalance::BANK;
+        assert_eq!(bank.following(0.0, [0.1, 0.8, 0.1]), bank);
+        let at_mean = bank.following(BANK_WATER_SHARE, BANK_UNDERWATER_CHROMATICITY);
+        for (a, b) in at_mean.0.iter().zip(bank.0) {
+            assert!((a - b).abs() < 1e-6, "{a} {b}");
+        }
+        // A greener water than the bank's mean: a greener, less blue clean side; a bluer one
+        // the other way; grey through both keeps its brightness within a few per cent.
+        let grey = Image::from_planar(2, 2, 3, vec![0.5; 12]).unwrap();
+        let means = |b: CleanBalance| {
+            let out = b.apply(&grey).unwrap();
+            std::array::from_fn::<f32, 3, _>(|c| out.plane(c)[0])
+        };
+        let base = means(bank);
+        let green = means(bank.following(BANK_WATER_SHARE, [0.15, 0.55, 0.30]));
+        let blue = means(bank.following(BANK_WATER_SHARE, [0.15, 0.35, 0.50]));
+        assert!(
+            green[1] > base[1] && green[2] < base[2],
+            "{green:?} {base:?}"
+        );
+        assert!(blue[2] > base[2] && blue[1] < base[1], "{blue:?} {base:?}");
+        for m in [green, blue] {
+            let b = m.iter().sum::<f32>() / 3.0;
+            assert!((b - 0.5).abs() < 0.03, "{m:?}");
+        }
+        // The gains stay in range however strong the water.
+        let extreme = bank.following(1.0, [0.0, 0.0, 1.0]);
+        assert!(extreme.validate().is_ok(), "{extreme:?}");
+        assert_eq!(chromaticity(&grey), Some([1.0 / 3.0; 3]));
+        let black = Image::from_planar(2, 2, 3, vec![0.0; 12]).unwrap();
+        assert_eq!(chromaticity(&black), None);
     }
 
     #[test]

@@ -32,7 +32,10 @@ use crate::error::{ModelError, Result};
 mod balance;
 mod predict;
 
-pub use balance::{BALANCE_RANGE, CleanBalance};
+pub use balance::{
+    BALANCE_RANGE, BANK_CLEAN_CHROMATICITY, BANK_UNDERWATER_CHROMATICITY, BANK_WATER_SHARE,
+    CleanBalance, chromaticity,
+};
 
 #[cfg(test)]
 use predict::percentile;

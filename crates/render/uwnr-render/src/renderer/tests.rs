@@ -144,6 +144,10 @@ fn the_clean_balance_runs_before_the_water_and_is_recorded() {
     let mut stripped = recorded.clone();
     stripped.as_object_mut().unwrap().remove("balance");
     stripped.as_object_mut().unwrap().remove("clean_side");
+    stripped
+        .as_object_mut()
+        .unwrap()
+        .remove("balance_water_share");
     assert_eq!(stripped, old, "nothing else differs");
 
     // The clean side a dataset stores: by default the balanced photo; the photo as given when
@@ -157,24 +161,24 @@ fn the_clean_balance_runs_before_the_water_and_is_recorded() {
 
     // What the calibration measures from: the balanced photo for uwnr, the photo for the rest.
     let clean = Image::filled(32, 32, 3, 0.5);
-    let balanced = bank.balanced(&clean).unwrap();
+    let balanced = bank.balanced(&clean, None).unwrap();
     assert!(matches!(
-        photo.clean_side(&clean).unwrap(),
+        photo.clean_side(&clean, None).unwrap(),
         std::borrow::Cow::Borrowed(_)
     ));
     assert!(matches!(
-        none.clean_side(&clean).unwrap(),
+        none.clean_side(&clean, None).unwrap(),
         std::borrow::Cow::Borrowed(_)
     ));
-    assert_eq!(*bank.clean_side(&clean).unwrap(), *balanced);
+    assert_eq!(*bank.clean_side(&clean, None).unwrap(), *balanced);
     assert!(balanced.plane(0)[0] < 0.5 && balanced.plane(2)[0] > 0.5);
     assert!(matches!(
-        none.balanced(&clean).unwrap(),
+        none.balanced(&clean, None).unwrap(),
         std::borrow::Cow::Borrowed(_)
     ));
     let reinhard = Renderer::load(MethodSpec::defaults(MethodKind::Reinhard, true)).unwrap();
     assert!(matches!(
-        reinhard.balanced(&clean).unwrap(),
+        reinhard.balanced(&clean, None).unwrap(),
         std::borrow::Cow::Borrowed(_)
     ));
 
@@ -218,5 +222,88 @@ fn the_clean_balance_runs_before_the_water_and_is_recorded() {
             .unwrap_err()
             .to_string()
             .contains("clean balance")
+    );
+}
+
+#[test]
+fn the_clean_balance_follows_the_reference_s_water_by_its_share() {
+    if uwnr_model::bundled_model_bytes().is_none() {
+        eprintln!("skipped: this build has no bundled model (`cargo test --workspace` has it)");
+        return;
+    }
+    let load = |share: f32| {
+        Renderer::load(MethodSpec::Uwnr(UwnrSpec {
+            effects: WaterEffects::NONE,
+            balance_water_share: share,
+            ..UwnrSpec::default()
+        }))
+        .unwrap()
+    };
+    let (follows, fixed) = (load(uwnr_model::water::BANK_WATER_SHARE), load(0.0));
+    // Recorded when it follows; the fixed balance keeps v8's record.
+    let (rf, r0) = (
+        follows.settings_params().unwrap(),
+        fixed.settings_params().unwrap(),
+    );
+    assert_eq!(
+        rf["balance_water_share"],
+        serde_json::json!(uwnr_model::water::BANK_WATER_SHARE)
+    );
+    assert!(r0.get("balance_water_share").is_none(), "{r0}");
+    // A green reference and a blue one, each with its water's colour throughout.
+    let reference = |rgb: [f32; 3]| {
+        let mut img = Image::filled(48, 36, 3, 0.0);
+        for (c, v) in rgb.iter().enumerate() {
+            img.plane_mut(c).fill(*v);
+        }
+        img
+    };
+    let (green, blue) = (reference([0.1, 0.5, 0.3]), reference([0.1, 0.3, 0.5]));
+    let clean = Image::filled(32, 32, 3, 0.5);
+    let side = |r: &Renderer, img: &Image| {
+        let style = r.reference_style(img, false).unwrap();
+        let out = r.clean_side(&clean, Some(&style)).unwrap().into_owned();
+        assert_eq!(*r.balanced(&clean, Some(&style)).unwrap(), out);
+        std::array::from_fn::<f32, 3, _>(|c| out.plane(c)[0])
+    };
+    let (g, b) = (side(&follows, &green), side(&follows, &blue));
+    assert!(g[1] > b[1] && g[2] < b[2], "green {g:?} blue {b:?}");
+    // The fixed balance gives both the same clean side, v8's.
+    let (g0, b0) = (side(&fixed, &green), side(&fixed, &blue));
+    assert_eq!(g0, b0);
+    let v8 = fixed.balanced(&clean, None).unwrap();
+    assert_eq!(g0, std::array::from_fn(|c| v8.plane(c)[0]));
+    // The render starts from the same balanced photo: greener after the green reference.
+    let render = |r: &Renderer, img: &Image| {
+        let prepared = r.prepare_reference(Arc::new(img.clone())).unwrap();
+        r.worker()
+            .render(
+                &clean,
+                &Image::filled(32, 32, 1, 0.5),
+                &DepthResponse::default(),
+                Some(prepared.input()),
+                0,
+            )
+            .unwrap()
+            .image
+    };
+    let mean = |img: &Image, c: usize| img.plane(c).iter().sum::<f32>() / 1024.0;
+    let (rg, r0g) = (render(&follows, &green), render(&fixed, &green));
+    assert!(
+        mean(&rg, 1) > mean(&r0g, 1),
+        "green {} {}",
+        mean(&rg, 1),
+        mean(&r0g, 1)
+    );
+    // A share out of [0, 1] is refused before anything is loaded.
+    let bad = MethodSpec::Uwnr(UwnrSpec {
+        balance_water_share: 1.5,
+        ..UwnrSpec::default()
+    });
+    assert!(
+        bad.validate()
+            .unwrap_err()
+            .to_string()
+            .contains("balance_water_share")
     );
 }
