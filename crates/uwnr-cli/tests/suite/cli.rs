@@ -220,15 +220,17 @@ fn lightfield_and_depth_commands_write_maps() {
 
 #[test]
 fn a_closed_stdout_stops_quietly_without_a_panic() {
-    // The reader closes the pipe before uwnr prints (it first loads the bundled model), as
-    // `uwnr info | head -0` does: the print fails with EPIPE.
-    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_uwnr"))
+    // The reader has closed the pipe before uwnr prints, as in `uwnr info | head -0`: the print
+    // fails with EPIPE. (The read end is closed before uwnr starts: closed after, the race with a
+    // `uwnr info` that prints within a millisecond was sometimes lost.)
+    let (reader, writer) = std::io::pipe().expect("a pipe");
+    drop(reader);
+    let child = std::process::Command::new(env!("CARGO_BIN_EXE_uwnr"))
         .arg("info")
-        .stdout(std::process::Stdio::piped())
+        .stdout(writer)
         .stderr(std::process::Stdio::piped())
         .spawn()
         .expect("running uwnr");
-    drop(child.stdout.take());
     let o = child.wait_with_output().expect("waiting for uwnr");
     let err = stderr(&o);
     assert!(!err.contains("panicked"), "{err}");

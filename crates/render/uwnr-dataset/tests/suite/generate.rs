@@ -319,6 +319,8 @@ fn the_clean_balance_is_calibrated_from_recorded_and_refused_on_resume_when_chan
         Renderer::load(MethodSpec::Uwnr(UwnrSpec {
             effects: uwnr_model::WaterEffects::NONE,
             balance,
+            // The fixed balance (v8's); the one following the water is tested below.
+            balance_water_share: 0.0,
             clean_side: uwnr_render::CleanSide::Photo,
             ..UwnrSpec::default()
         }))
@@ -376,6 +378,7 @@ fn the_clean_balance_is_calibrated_from_recorded_and_refused_on_resume_when_chan
     let side = tmp.path().join("side");
     let balanced_side = Renderer::load(MethodSpec::Uwnr(UwnrSpec {
         effects: uwnr_model::WaterEffects::NONE,
+        balance_water_share: 0.0,
         ..UwnrSpec::default()
     }))
     .unwrap();
