@@ -38,8 +38,8 @@ fn failure(e: RenderError) -> Failure {
     }
 }
 
-/// A real underwater reference, decoded once, with its light field maps computed on first use
-/// and kept (one per normalisation).
+/// A real underwater reference, decoded once, with its light field maps (one per normalisation),
+/// waters and chromaticity computed on first use and kept.
 #[pyclass(frozen, module = "uwnr._uwnr")]
 pub(crate) struct NativeReference {
     image: Image,
@@ -48,6 +48,8 @@ pub(crate) struct NativeReference {
     global: OnceLock<Result<Image, String>>,
     /// The water per (anchor, detail retention) a network has asked for.
     water: std::sync::Mutex<Vec<((uwnr_model::AnchorKind, bool), uwnr_model::Water)>>,
+    /// The chromaticity, for a clean balance that follows the water.
+    chromaticity: OnceLock<Option<[f32; 3]>>,
 }
 
 impl NativeReference {
@@ -99,7 +101,11 @@ impl NativeReference {
             light_field,
             water,
             chromaticity: chromaticity
-                .then(|| uwnr_model::water::chromaticity(&self.image))
+                .then(|| {
+                    *self
+                        .chromaticity
+                        .get_or_init(|| uwnr_model::water::chromaticity(&self.image))
+                })
                 .flatten(),
         })
     }
@@ -117,6 +123,7 @@ impl NativeReference {
             absolute: OnceLock::new(),
             global: OnceLock::new(),
             water: std::sync::Mutex::new(Vec::new()),
+            chromaticity: OnceLock::new(),
         })
     }
 

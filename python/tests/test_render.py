@@ -255,6 +255,23 @@ def test_method_options_reach_the_baseline():
     assert given.render(clean).shape == clean.shape
 
 
+def test_a_balance_following_the_water_renders_as_the_cli_does(cli, pngs, tmp_path):
+    d, clean, ref = pngs
+    config = tmp_path / "follow.json"
+    config.write_text('{"method": "uwnr", "balance_water_share": 0.325}')
+    out = tmp_path / "follow.png"
+    run_cli(cli, "render", d / "clean.png", "--reference", d / "ref.png", "--output", out,
+            "--method-config", config)
+    follows = uwnr.Renderer(method="uwnr", balance_water_share=0.325)
+    got = follows.render(clean, ref)
+    assert np.array_equal(got, read_png(out))
+    assert not np.array_equal(got, uwnr.Renderer(method="uwnr").render(clean, ref))
+    # A reference object keeps its chromaticity: the second render is the first.
+    r = uwnr.Reference(ref)
+    assert np.array_equal(follows.render(clean, r), got)
+    assert np.array_equal(follows.render(clean, r), got)
+
+
 def test_render_batch_equals_single_renders(network):
     cleans = [gradient(32, 40, seed=s) for s in range(4)]
     refs = [water(32, 32, seed=s) for s in range(2)]

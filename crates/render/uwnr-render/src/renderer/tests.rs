@@ -114,6 +114,21 @@ fn missing_weights_are_one_clear_error() {
     );
 }
 
+/// `r`'s render of `clean` (32 x 32) after `reference`, at a flat depth and seed 0.
+fn render_after(r: &Renderer, reference: &Image, clean: &Image) -> Image {
+    let prepared = r.prepare_reference(Arc::new(reference.clone())).unwrap();
+    r.worker()
+        .render(
+            clean,
+            &Image::filled(32, 32, 1, 0.5),
+            &DepthResponse::default(),
+            Some(prepared.input()),
+            0,
+        )
+        .unwrap()
+        .image
+}
+
 #[test]
 fn the_clean_balance_runs_before_the_water_and_is_recorded() {
     // The bundled model with no effects, at the bank's balance and at none.
@@ -183,22 +198,11 @@ fn the_clean_balance_runs_before_the_water_and_is_recorded() {
     ));
 
     // The render after a grey reference: the bank's balance cools it, as the balanced photo.
-    let render = |r: &Renderer| {
-        let prepared = r
-            .prepare_reference(Arc::new(Image::filled(40, 30, 3, 0.3)))
-            .unwrap();
-        r.worker()
-            .render(
-                &clean,
-                &Image::filled(32, 32, 1, 0.5),
-                &DepthResponse::default(),
-                Some(prepared.input()),
-                0,
-            )
-            .unwrap()
-            .image
-    };
-    let (b, n) = (render(&bank), render(&none));
+    let grey = Image::filled(40, 30, 3, 0.3);
+    let (b, n) = (
+        render_after(&bank, &grey, &clean),
+        render_after(&none, &grey, &clean),
+    );
     let mean = |img: &Image, c: usize| img.plane(c).iter().sum::<f32>() / 1024.0;
     assert!(
         mean(&b, 0) < mean(&n, 0),
@@ -274,21 +278,11 @@ fn the_clean_balance_follows_the_reference_s_water_by_its_share() {
     let v8 = fixed.balanced(&clean, None).unwrap();
     assert_eq!(g0, std::array::from_fn(|c| v8.plane(c)[0]));
     // The render starts from the same balanced photo: greener after the green reference.
-    let render = |r: &Renderer, img: &Image| {
-        let prepared = r.prepare_reference(Arc::new(img.clone())).unwrap();
-        r.worker()
-            .render(
-                &clean,
-                &Image::filled(32, 32, 1, 0.5),
-                &DepthResponse::default(),
-                Some(prepared.input()),
-                0,
-            )
-            .unwrap()
-            .image
-    };
     let mean = |img: &Image, c: usize| img.plane(c).iter().sum::<f32>() / 1024.0;
-    let (rg, r0g) = (render(&follows, &green), render(&fixed, &green));
+    let (rg, r0g) = (
+        render_after(&follows, &green, &clean),
+        render_after(&fixed, &green, &clean),
+    );
     assert!(
         mean(&rg, 1) > mean(&r0g, 1),
         "green {} {}",
