@@ -473,7 +473,7 @@ impl Worker<'_> {
                     // the medium towards the render's own mean colour.
                     let veil = match style.water.as_ref() {
                         Some(w) => w.veil,
-                        None => mean_colour(&image),
+                        None => uwnr_model::water::mean_colour(&image),
                     };
                     net.effects
                         .apply(&mut image, depth, veil, seed)
@@ -547,14 +547,6 @@ impl Worker<'_> {
             }
         }
     }
-}
-
-/// Mean of each channel of an RGB image.
-fn mean_colour(img: &Image) -> [f32; 3] {
-    std::array::from_fn(|c| {
-        let p = img.plane(c);
-        (p.iter().map(|&v| f64::from(v)).sum::<f64>() / p.len().max(1) as f64) as f32
-    })
 }
 
 fn failed(context: &str, e: impl Into<Cause>) -> RenderError {

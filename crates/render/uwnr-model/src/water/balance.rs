@@ -55,12 +55,18 @@ pub fn chromaticity(img: &Image) -> Option<[f32; 3]> {
     if img.channels() != 3 {
         return None;
     }
-    let m: [f64; 3] = std::array::from_fn(|c| {
+    let m = mean_colour(img);
+    let sum = m.iter().sum::<f32>();
+    (sum > 1e-6).then(|| m.map(|v| v / sum))
+}
+
+/// Mean of each channel of an RGB image.
+#[must_use]
+pub fn mean_colour(img: &Image) -> [f32; 3] {
+    std::array::from_fn(|c| {
         let p = img.plane(c);
-        p.iter().map(|&v| f64::from(v)).sum::<f64>() / p.len().max(1) as f64
-    });
-    let sum = m.iter().sum::<f64>();
-    (sum > 1e-6).then(|| m.map(|v| (v / sum) as f32))
+        (p.iter().map(|&v| f64::from(v)).sum::<f64>() / p.len().max(1) as f64) as f32
+    })
 }
 
 /// Range of a balance gain.

@@ -34,7 +34,7 @@ mod predict;
 
 pub use balance::{
     BALANCE_RANGE, BANK_CLEAN_CHROMATICITY, BANK_UNDERWATER_CHROMATICITY, BANK_WATER_SHARE,
-    CleanBalance, chromaticity,
+    CleanBalance, chromaticity, mean_colour,
 };
 
 #[cfg(test)]
