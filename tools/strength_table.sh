@@ -5,6 +5,7 @@
 # U45 references (REFS=ruie) or UIEB's challenging photos (REFS=uieb). Real pairs for
 # comparison: `uwnr water fit` prints their strengths.
 # CAMERA sets `--camera` (e.g. '{"clean":"none"}'); unset, `uwnr dataset`'s default.
+# METHOD_CONFIG gives uwnr a `--method-config` file (NAME names its rows; default the file's name).
 # Run from the repository root: bash tools/strength_table.sh [BIN]   (PYTHON: with numpy, Pillow)
 set -euo pipefail
 BIN=${1:-${BIN:-target/release/uwnr}}
@@ -20,11 +21,16 @@ esac
 mkdir -p "$OUT"
 for m in $METHODS; do
   name=$m${WEIGHTS:+-$(basename "$WEIGHTS" .safetensors)}
+  C=()
+  if [ "$m" = uwnr ] && [ -n "${METHOD_CONFIG:-}" ]; then
+    C=(--method-config "$METHOD_CONFIG")
+    name=$m-${NAME:-$(basename "$METHOD_CONFIG" .json)}
+  fi
   dir="$OUT/${REFS:-ruie}-$name"
   W=()
   [ "$m" = uwnr ] && [ -n "${WEIGHTS:-}" ] && W=(--weights "$WEIGHTS")
   line=$("$BIN" dataset --clean "$DATA/inair/cbsd68" "$DATA/inair/set14" --references "${R[@]}" \
-    -k 2 --size 256x256 --seed 0 --method "$m" "${W[@]}" ${CAMERA:+--camera "$CAMERA"} --no-gallery -o "$dir" 2>&1 | grep '^strength' || true)
+    -k 2 --size 256x256 --seed 0 --method "$m" "${W[@]}" "${C[@]}" ${CAMERA:+--camera "$CAMERA"} --no-gallery -o "$dir" 2>&1 | grep '^strength' || true)
   cast=$("$PYTHON" tools/pair_cast.py "$dir" | cut -f3-)
   printf '%s\t%s\t%s\n' "$name" "${line#strength PSNR(underwater, clean) over }" "$cast"
 done

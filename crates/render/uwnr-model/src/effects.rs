@@ -120,6 +120,18 @@ impl WaterEffects {
         Ok(())
     }
 
+    /// Only the light's stages (light from above and the vignette) on `img` (RGB in [0, 1]):
+    /// what a pair's clean side shares with its underwater side when the scene's light is kept
+    /// on both, as real pairs' clean sides keep it. Nothing when both are 0.
+    pub fn apply_light(&self, img: &mut Image) -> Result<()> {
+        self.validate()?;
+        if self.light_from_above > 0.0 || self.vignette > 0.0 {
+            light(img, self.light_from_above, self.vignette);
+            img.clamp01();
+        }
+        Ok(())
+    }
+
     /// Applies the stages to `img` (RGB in [0, 1]) over `depth` (1 plane, its size, larger is
     /// farther) in a water whose veil is `veil`; `seed` draws the particles and the medium.
     pub fn apply(&self, img: &mut Image, depth: &Image, veil: [f32; 3], seed: u64) -> Result<()> {
@@ -484,6 +496,37 @@ mod tests {
         for (a, b) in water.data().iter().zip(before.data()) {
             assert!((a - b).abs() < 1e-5);
         }
+    }
+
+    #[test]
+    fn the_light_alone_is_the_light_of_the_whole_stage() {
+        let (w, h) = (40, 30);
+        let depth = Image::filled(w, h, 1, 0.3);
+        let fx = WaterEffects {
+            light_from_above: 0.6,
+            vignette: 0.2,
+            ..WaterEffects::NONE
+        };
+        let mut whole = stripes(w, h);
+        fx.apply(&mut whole, &depth, [0.1, 0.5, 0.4], 3).unwrap();
+        let mut light_only = stripes(w, h);
+        fx.apply_light(&mut light_only).unwrap();
+        assert_eq!(whole, light_only);
+        assert_ne!(light_only, stripes(w, h));
+        // The other stages are not the scene's light: nothing of them.
+        let mut unlit = stripes(w, h);
+        WaterEffects {
+            light_from_above: 0.0,
+            ..WaterEffects::DEFAULT
+        }
+        .apply_light(&mut unlit)
+        .unwrap();
+        assert_eq!(unlit, stripes(w, h));
+        let bad = WaterEffects {
+            light_from_above: 2.0,
+            ..WaterEffects::NONE
+        };
+        assert!(bad.apply_light(&mut unlit).is_err());
     }
 
     #[test]

@@ -222,6 +222,10 @@ pub enum CleanSide {
     /// The photo at the method's clean balance (with the bank's balance, the default: v8).
     #[default]
     Balanced,
+    /// The photo at the clean balance, lit as the underwater side is (the effects' light from
+    /// above and vignette): the scene's light, which real pairs' clean sides keep, is then on
+    /// both sides, and a pair differs by the water alone.
+    Lit,
 }
 
 impl CleanSide {

@@ -305,7 +305,7 @@ impl Renderer {
 
     /// What a dataset stores as the clean side of a pair made from `clean`: the photo at the
     /// clean balance (for the reference of `style`) when the uwnr method's `clean_side` says so,
-    /// `clean` itself otherwise.
+    /// lit as the underwater side is as well when it says `lit`, `clean` itself otherwise.
     pub fn clean_side<'a>(
         &self,
         clean: &'a Image,
@@ -313,6 +313,13 @@ impl Renderer {
     ) -> Result<std::borrow::Cow<'a, Image>> {
         match &self.imp {
             Imp::Uwnr(n) if n.clean_side == CleanSide::Balanced => self.balanced(clean, style),
+            Imp::Uwnr(n) if n.clean_side == CleanSide::Lit => {
+                let mut lit = self.balanced(clean, style)?.into_owned();
+                n.effects
+                    .apply_light(&mut lit)
+                    .map_err(|e| failed("lighting the clean side", e))?;
+                Ok(std::borrow::Cow::Owned(lit))
+            }
             _ => Ok(std::borrow::Cow::Borrowed(clean)),
         }
     }
@@ -330,8 +337,11 @@ impl Renderer {
                 effects: &n.effects,
                 balance: &n.balance,
                 balance_water_share: n.balance_water_share,
-                clean_side: (!n.clean_side.is_photo() && !n.balance.is_none())
-                    .then_some(&n.clean_side),
+                clean_side: match n.clean_side {
+                    CleanSide::Photo => None,
+                    CleanSide::Balanced => (!n.balance.is_none()).then_some(&n.clean_side),
+                    CleanSide::Lit => Some(&n.clean_side),
+                },
             }),
             Imp::Uwgan(g) => serde_json::to_value(GanRecord {
                 weights: &g.weights,

@@ -496,3 +496,82 @@ fn a_clean_balance_following_the_water_is_stored_recorded_and_refused_on_resume_
         "{err}"
     );
 }
+
+#[test]
+fn a_lit_clean_side_is_stored_recorded_and_refused_on_resume_when_changed() {
+    use uwnr_model::WaterEffects;
+    use uwnr_render::{CleanSide, MethodSpec, Renderer, UwnrSpec};
+    if uwnr_model::bundled_model_bytes().is_none() {
+        eprintln!("skipped: this build has no bundled model (`cargo test --workspace` has it)");
+        return;
+    }
+    let light = WaterEffects {
+        light_from_above: 0.6,
+        ..WaterEffects::NONE
+    };
+    let uwnr = |clean_side| {
+        Renderer::load(MethodSpec::Uwnr(UwnrSpec {
+            effects: light,
+            clean_side,
+            ..UwnrSpec::default()
+        }))
+        .unwrap()
+    };
+    let tmp = tempfile::tempdir().unwrap();
+    let (clean, refs) = inputs(tmp.path(), 3, 3);
+    let sp = spec(&clean, &refs, 1);
+    let (flat, lit) = (tmp.path().join("flat"), tmp.path().join("lit"));
+    run(&flat, &sp, &uwnr(CleanSide::Balanced), &opts(1));
+    run(&lit, &sp, &uwnr(CleanSide::Lit), &opts(2));
+    let record = serde_json::from_slice::<serde_json::Value>(
+        &std::fs::read(lit.join("dataset.json")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(record["method_params"]["clean_side"], "lit", "{record}");
+    let limits = DecodeLimits::default();
+    let load = |root: &std::path::Path, f: &str| load_rgb(&root.join(f), &limits).unwrap();
+    let (m, m2) = (
+        read_manifest(&flat.join("manifest.jsonl")).unwrap(),
+        read_manifest(&lit.join("manifest.jsonl")).unwrap(),
+    );
+    assert_eq!(m.records.len(), 3);
+    for ((_, r), (_, r2)) in m.records.iter().zip(&m2.records) {
+        // The underwater side is the same; the clean side is the balanced one under the same
+        // light (within the stored balanced side's rounding).
+        assert_eq!(load(&flat, &r.underwater), load(&lit, &r2.underwater));
+        let mut expected = load(&flat, &r.clean);
+        let balanced = expected.clone();
+        light.apply_light(&mut expected).unwrap();
+        let got = load(&lit, &r2.clean);
+        let worst = got
+            .data()
+            .iter()
+            .zip(expected.data())
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0f32, f32::max);
+        // Half a level of the stored balanced side's rounding, times the light's largest gain
+        // (1.3 at the top), and half a level of the lit side's own.
+        assert!(worst <= (0.5 * 1.3 + 0.5 + 0.01) / 255.0, "{r2:?}: {worst}");
+        let (w, h) = got.size();
+        let row_mean = |img: &uwnr_core::Image, y: usize| {
+            img.plane(1)[y * w..(y + 1) * w].iter().sum::<f32>() / w as f32
+        };
+        assert!(row_mean(&got, 0) > row_mean(&balanced, 0));
+        assert!(row_mean(&got, h - 1) < row_mean(&balanced, h - 1));
+    }
+    // A resume with the balanced clean side is refused, naming the field.
+    let stop = AtomicBool::new(false);
+    let err = uwnr_dataset::generate(
+        &lit,
+        &sp,
+        &uwnr(CleanSide::Balanced),
+        &opts(1),
+        &stop,
+        &mut |_| {},
+    )
+    .unwrap_err();
+    assert!(
+        matches!(&err, DatasetError::SettingsMismatch { field, .. } if field.contains("clean_side")),
+        "{err}"
+    );
+}

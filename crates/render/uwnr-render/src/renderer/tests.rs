@@ -301,3 +301,64 @@ fn the_clean_balance_follows_the_reference_s_water_by_its_share() {
             .contains("balance_water_share")
     );
 }
+
+#[test]
+fn a_lit_clean_side_carries_the_underwater_side_s_light() {
+    if uwnr_model::bundled_model_bytes().is_none() {
+        eprintln!("skipped: this build has no bundled model (`cargo test --workspace` has it)");
+        return;
+    }
+    let load = |clean_side, effects| {
+        Renderer::load(MethodSpec::Uwnr(UwnrSpec {
+            effects,
+            clean_side,
+            ..UwnrSpec::default()
+        }))
+        .unwrap()
+    };
+    let light = WaterEffects {
+        light_from_above: 0.6,
+        ..WaterEffects::NONE
+    };
+    let (lit, balanced) = (
+        load(CleanSide::Lit, light),
+        load(CleanSide::Balanced, light),
+    );
+    assert_eq!(lit.settings_params().unwrap()["clean_side"], "lit");
+    let clean = Image::filled(32, 32, 3, 0.5);
+    let side = lit.clean_side(&clean, None).unwrap();
+    let flat = balanced.clean_side(&clean, None).unwrap();
+    let (w, h) = clean.size();
+    for c in 0..3 {
+        for y in [0, h / 2, h - 1] {
+            let gain = 1.0 + 0.6 * (0.5 - (y as f32 + 0.5) / h as f32);
+            let (got, want) = (side.plane(c)[y * w + 3], flat.plane(c)[y * w + 3] * gain);
+            assert!(
+                (got - want).abs() < 1e-6,
+                "channel {c} row {y}: {got} against {want}"
+            );
+        }
+    }
+    // The top brighter than the balanced photo, the bottom darker: the light from above the
+    // underwater side has.
+    assert!(
+        side.plane(1)[3] > flat.plane(1)[3]
+            && side.plane(1)[(h - 1) * w] < flat.plane(1)[(h - 1) * w]
+    );
+    // The underwater side is the same whichever clean side is stored.
+    let reference = Image::filled(32, 32, 3, 0.4);
+    assert_eq!(
+        render_after(&lit, &reference, &clean),
+        render_after(&balanced, &reference, &clean)
+    );
+    // Without light in the effects a lit clean side is the balanced one.
+    let dark = load(CleanSide::Lit, WaterEffects::NONE);
+    assert_eq!(*dark.clean_side(&clean, None).unwrap(), *flat);
+    assert_ne!(
+        dark.settings_params().unwrap(),
+        load(CleanSide::Balanced, WaterEffects::NONE)
+            .settings_params()
+            .unwrap(),
+        "recorded, so a resume across the two is refused"
+    );
+}
