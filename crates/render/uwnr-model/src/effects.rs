@@ -120,12 +120,18 @@ impl WaterEffects {
         Ok(())
     }
 
+    /// Whether a light stage (light from above, the vignette) runs.
+    #[must_use]
+    pub fn has_light(&self) -> bool {
+        self.light_from_above > 0.0 || self.vignette > 0.0
+    }
+
     /// Only the light's stages (light from above and the vignette) on `img` (RGB in [0, 1]):
     /// what a pair's clean side shares with its underwater side when the scene's light is kept
     /// on both, as real pairs' clean sides keep it. Nothing when both are 0.
     pub fn apply_light(&self, img: &mut Image) -> Result<()> {
         self.validate()?;
-        if self.light_from_above > 0.0 || self.vignette > 0.0 {
+        if self.has_light() {
             light(img, self.light_from_above, self.vignette);
             img.clamp01();
         }
@@ -193,7 +199,7 @@ impl WaterEffects {
                 }
             }
         }
-        if self.light_from_above > 0.0 || self.vignette > 0.0 {
+        if self.has_light() {
             light(img, self.light_from_above, self.vignette);
         }
         if self.particles > 0.0 {

@@ -206,10 +206,11 @@ pub struct UwnrSpec {
     /// 0 for the fixed balance (v8), the default; the bank's fitted share is
     /// `uwnr_model::water::BANK_WATER_SHARE` (0.325).
     pub balance_water_share: f32,
-    /// What a dataset stores as a pair's clean side: the photo as given, or the photo at the
-    /// clean balance (the white point real pairs' clean sides have, so that a pair is made as a
-    /// real pair is: the underwater side and a clean side at that white point, at the strength
-    /// drawn from real pairs).
+    /// What a dataset stores as a pair's clean side: the photo as given, the photo at the
+    /// clean balance (the white point real pairs' clean sides have), or that photo under the
+    /// underwater side's light (the default), so that a pair is made as a real pair is: the
+    /// underwater side and a clean side at that white point and in the same light, at the
+    /// strength drawn from real pairs.
     pub clean_side: CleanSide,
 }
 
@@ -219,12 +220,12 @@ pub struct UwnrSpec {
 pub enum CleanSide {
     /// The photo as given.
     Photo,
-    /// The photo at the method's clean balance (with the bank's balance, the default: v8).
-    #[default]
+    /// The photo at the method's clean balance (v8's clean side).
     Balanced,
     /// The photo at the clean balance, lit as the underwater side is (the effects' light from
     /// above and vignette): the scene's light, which real pairs' clean sides keep, is then on
-    /// both sides, and a pair differs by the water alone.
+    /// both sides, and a pair differs by the water alone (the default).
+    #[default]
     Lit,
 }
 
@@ -249,7 +250,7 @@ impl Default for UwnrSpec {
             effects: WaterEffects::DEFAULT,
             balance: CleanBalance::BANK,
             balance_water_share: 0.0,
-            clean_side: CleanSide::Balanced,
+            clean_side: CleanSide::Lit,
         }
     }
 }

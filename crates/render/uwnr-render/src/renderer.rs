@@ -312,14 +312,15 @@ impl Renderer {
         style: Option<&ReferenceStyle>,
     ) -> Result<std::borrow::Cow<'a, Image>> {
         match &self.imp {
-            Imp::Uwnr(n) if n.clean_side == CleanSide::Balanced => self.balanced(clean, style),
-            Imp::Uwnr(n) if n.clean_side == CleanSide::Lit => {
+            Imp::Uwnr(n) if n.clean_side == CleanSide::Lit && n.effects.has_light() => {
                 let mut lit = self.balanced(clean, style)?.into_owned();
                 n.effects
                     .apply_light(&mut lit)
                     .map_err(|e| failed("lighting the clean side", e))?;
                 Ok(std::borrow::Cow::Owned(lit))
             }
+            // Lit without a light stage is the balanced photo.
+            Imp::Uwnr(n) if n.clean_side != CleanSide::Photo => self.balanced(clean, style),
             _ => Ok(std::borrow::Cow::Borrowed(clean)),
         }
     }

@@ -94,7 +94,8 @@ fn strength_is_reported_per_pair_and_for_the_folder() {
         let recorded = r["strength_db"].as_f64().unwrap();
         assert!((db - recorded).abs() < 1e-3, "{db} {recorded}");
         // The water was calibrated from the photo at the clean balance (the white point the
-        // bank's waters start from), which is the clean side stored (the default clean side).
+        // bank's waters start from); the clean side stored is that photo under the underwater
+        // side's light (the default clean side, "lit").
         let source = uwnr_core::io::load_rgb(
             std::path::Path::new(r["clean_source"].as_str().unwrap()),
             &limits,
@@ -102,10 +103,18 @@ fn strength_is_reported_per_pair_and_for_the_folder() {
         .unwrap();
         let balanced = uwnr_model::water::CleanBalance::BANK
             .apply(&source)
-            .unwrap()
-            .quantised();
-        assert_eq!(balanced, c, "the stored clean side is the balanced photo");
-        let from_balanced = db;
+            .unwrap();
+        let mut lit = balanced.clone().into_owned();
+        uwnr_model::WaterEffects::DEFAULT
+            .apply_light(&mut lit)
+            .unwrap();
+        assert_eq!(
+            lit.quantised(),
+            c,
+            "the stored clean side is the balanced photo, lit"
+        );
+        let from_balanced =
+            f64::from(uwnr_model::water::pair_psnr(&u, &balanced.quantised()).unwrap());
         // Every pair was calibrated and says to what.
         assert!(r["params"]["strength"]["target_db"].is_number(), "{r}");
         assert!(r["params"]["water"]["gain"].is_array(), "{r}");

@@ -379,6 +379,7 @@ fn the_clean_balance_is_calibrated_from_recorded_and_refused_on_resume_when_chan
     let balanced_side = Renderer::load(MethodSpec::Uwnr(UwnrSpec {
         effects: uwnr_model::WaterEffects::NONE,
         balance_water_share: 0.0,
+        clean_side: uwnr_render::CleanSide::Balanced,
         ..UwnrSpec::default()
     }))
     .unwrap();

@@ -136,26 +136,26 @@ fn the_clean_balance_runs_before_the_water_and_is_recorded() {
         eprintln!("skipped: this build has no bundled model (`cargo test --workspace` has it)");
         return;
     }
+    // The balanced clean side (v8's); the lit one, the default, is tested below.
     let load = |balance: CleanBalance| {
         Renderer::load(MethodSpec::Uwnr(UwnrSpec {
             effects: WaterEffects::NONE,
             balance,
+            clean_side: CleanSide::Balanced,
             ..UwnrSpec::default()
         }))
         .unwrap()
     };
     let (bank, none) = (load(CleanBalance::BANK), load(CleanBalance::NONE));
     assert_eq!(UwnrSpec::default().balance, CleanBalance::BANK);
+    assert_eq!(UwnrSpec::default().clean_side, CleanSide::Lit);
     let recorded = bank.settings_params().unwrap();
     assert_eq!(recorded["balance"], serde_json::json!(CleanBalance::BANK.0));
     // None keeps the settings' old form, so datasets made before the balance resume unchanged,
     // and a resume across the two is refused (the records differ).
     let old = none.settings_params().unwrap();
     assert!(old.get("balance").is_none(), "{old}");
-    assert_eq!(
-        recorded["clean_side"], "balanced",
-        "the default: {recorded}"
-    );
+    assert_eq!(recorded["clean_side"], "balanced", "{recorded}");
     let mut stripped = recorded.clone();
     stripped.as_object_mut().unwrap().remove("balance");
     stripped.as_object_mut().unwrap().remove("clean_side");
@@ -165,8 +165,8 @@ fn the_clean_balance_runs_before_the_water_and_is_recorded() {
         .remove("balance_water_share");
     assert_eq!(stripped, old, "nothing else differs");
 
-    // The clean side a dataset stores: by default the balanced photo; the photo as given when
-    // the method asks for it, which is then not recorded (the old form).
+    // The clean side a dataset stores: the balanced photo here; the photo as given when the
+    // method asks for it, which is then not recorded (the old form).
     let photo = Renderer::load(MethodSpec::Uwnr(UwnrSpec {
         clean_side: CleanSide::Photo,
         ..UwnrSpec::default()
