@@ -303,24 +303,27 @@ impl Renderer {
         }
     }
 
-    /// What a dataset stores as the clean side of a pair made from `clean`: the photo at the
-    /// clean balance (for the reference of `style`) when the uwnr method's `clean_side` says so,
-    /// lit as the underwater side is as well when it says `lit`, `clean` itself otherwise.
-    pub fn clean_side<'a>(
+    /// What a dataset stores as the clean side of a pair made from `clean`, given `balanced`,
+    /// that photo at the method's clean balance ([`Renderer::balanced`], which the calibration
+    /// measures from, so it is made once a pair): `balanced` when the uwnr method's `clean_side`
+    /// says so, lit as the underwater side is when it says `lit`, `clean` itself otherwise.
+    pub fn clean_side<'b>(
         &self,
-        clean: &'a Image,
-        style: Option<&ReferenceStyle>,
-    ) -> Result<std::borrow::Cow<'a, Image>> {
+        clean: &'b Image,
+        balanced: &'b Image,
+    ) -> Result<std::borrow::Cow<'b, Image>> {
         match &self.imp {
             Imp::Uwnr(n) if n.clean_side == CleanSide::Lit && n.effects.has_light() => {
-                let mut lit = self.balanced(clean, style)?.into_owned();
+                let mut lit = balanced.clone();
                 n.effects
                     .apply_light(&mut lit)
                     .map_err(|e| failed("lighting the clean side", e))?;
                 Ok(std::borrow::Cow::Owned(lit))
             }
             // Lit without a light stage is the balanced photo.
-            Imp::Uwnr(n) if n.clean_side != CleanSide::Photo => self.balanced(clean, style),
+            Imp::Uwnr(n) if n.clean_side != CleanSide::Photo => {
+                Ok(std::borrow::Cow::Borrowed(balanced))
+            }
             _ => Ok(std::borrow::Cow::Borrowed(clean)),
         }
     }

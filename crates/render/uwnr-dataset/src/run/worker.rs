@@ -254,7 +254,7 @@ impl Context<'_> {
         // The pair's clean side: the photo, or the balanced photo when the method says so.
         let stored = self
             .renderer
-            .clean_side(clean, style)
+            .clean_side(clean, &balanced)
             .map_err(|e| e.to_string())?;
         let mut calibration = match (self.calibration, reference) {
             (Some(target), Some((_, style))) => match style.water.as_ref() {

@@ -177,15 +177,19 @@ fn the_clean_balance_runs_before_the_water_and_is_recorded() {
     // What the calibration measures from: the balanced photo for uwnr, the photo for the rest.
     let clean = Image::filled(32, 32, 3, 0.5);
     let balanced = bank.balanced(&clean, None).unwrap();
+    let (photo_balanced, none_balanced) = (
+        photo.balanced(&clean, None).unwrap(),
+        none.balanced(&clean, None).unwrap(),
+    );
     assert!(matches!(
-        photo.clean_side(&clean, None).unwrap(),
+        photo.clean_side(&clean, &photo_balanced).unwrap(),
         std::borrow::Cow::Borrowed(_)
     ));
     assert!(matches!(
-        none.clean_side(&clean, None).unwrap(),
+        none.clean_side(&clean, &none_balanced).unwrap(),
         std::borrow::Cow::Borrowed(_)
     ));
-    assert_eq!(*bank.clean_side(&clean, None).unwrap(), *balanced);
+    assert_eq!(*bank.clean_side(&clean, &balanced).unwrap(), *balanced);
     assert!(balanced.plane(0)[0] < 0.5 && balanced.plane(2)[0] > 0.5);
     assert!(matches!(
         none.balanced(&clean, None).unwrap(),
@@ -266,8 +270,9 @@ fn the_clean_balance_follows_the_reference_s_water_by_its_share() {
     let clean = Image::filled(32, 32, 3, 0.5);
     let side = |r: &Renderer, img: &Image| {
         let style = r.reference_style(img, false).unwrap();
-        let out = r.clean_side(&clean, Some(&style)).unwrap().into_owned();
-        assert_eq!(*r.balanced(&clean, Some(&style)).unwrap(), out);
+        let balanced = r.balanced(&clean, Some(&style)).unwrap();
+        let out = r.clean_side(&clean, &balanced).unwrap().into_owned();
+        assert_eq!(*balanced, out);
         std::array::from_fn::<f32, 3, _>(|c| out.plane(c)[0])
     };
     let (g, b) = (side(&follows, &green), side(&follows, &blue));
@@ -326,8 +331,12 @@ fn a_lit_clean_side_carries_the_underwater_side_s_light() {
     );
     assert_eq!(lit.settings_params().unwrap()["clean_side"], "lit");
     let clean = Image::filled(32, 32, 3, 0.5);
-    let side = lit.clean_side(&clean, None).unwrap();
-    let flat = balanced.clean_side(&clean, None).unwrap();
+    let (lit_balanced, flat_balanced) = (
+        lit.balanced(&clean, None).unwrap(),
+        balanced.balanced(&clean, None).unwrap(),
+    );
+    let side = lit.clean_side(&clean, &lit_balanced).unwrap();
+    let flat = balanced.clean_side(&clean, &flat_balanced).unwrap();
     let (w, h) = clean.size();
     for c in 0..3 {
         for y in [0, h / 2, h - 1] {
@@ -353,7 +362,8 @@ fn a_lit_clean_side_carries_the_underwater_side_s_light() {
     );
     // Without light in the effects a lit clean side is the balanced one.
     let dark = load(CleanSide::Lit, WaterEffects::NONE);
-    assert_eq!(*dark.clean_side(&clean, None).unwrap(), *flat);
+    let dark_balanced = dark.balanced(&clean, None).unwrap();
+    assert_eq!(*dark.clean_side(&clean, &dark_balanced).unwrap(), *flat);
     assert_ne!(
         dark.settings_params().unwrap(),
         load(CleanSide::Balanced, WaterEffects::NONE)
